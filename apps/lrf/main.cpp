@@ -1,0 +1,107 @@
+// lrf: latent radiance fields on the command line. Each job is a subcommand (see cmd_*.cpp).
+#include <algorithm>
+#include <cstdio>
+#include <exception>
+#include <vector>
+
+#include <c10/util/Exception.h>
+
+#include "command.h"
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/run_info.h"
+#include "lrf/core/threads.h"
+
+namespace lrf::cli {
+namespace {
+
+struct Registered {
+  int order;
+  SetupFunction setup;
+};
+
+std::vector<Registered>& registrations() {
+  static std::vector<Registered> list;
+  return list;
+}
+
+std::vector<std::pair<CLI::App*, RunFunction>>& runners() {
+  static std::vector<std::pair<CLI::App*, RunFunction>> list;
+  return list;
+}
+
+}  // namespace
+
+CommandRegistration::CommandRegistration(int order, SetupFunction setup) {
+  registrations().push_back({order, std::move(setup)});
+}
+
+void on_run(CLI::App* command, RunFunction run) { runners().emplace_back(command, std::move(run)); }
+
+}  // namespace lrf::cli
+
+int main(int argc, char** argv) {
+  using namespace lrf;
+  set_command_line(argc, argv);
+  CLI::App app{"lrf: latent radiance fields. 3D reconstruction and novel-view synthesis in the latent "
+               "space of an image autoencoder (encoder alignment, latent Gaussian splatting, decoder "
+               "alignment, and their evaluation)."};
+  app.set_version_flag("--version", version_string());
+  int threads = 0;
+  bool quiet = false;
+  bool log_json = false;
+  app.add_option("--threads", threads, "Worker threads for every computation (0 = all cores)")
+      ->capture_default_str();
+  app.add_flag("--quiet,-q", quiet, "Print only warnings and errors");
+  app.add_flag("--log-json", log_json, "Print progress and log messages as JSON lines on stderr");
+  app.require_subcommand(1);
+  auto* help = app.add_subcommand("help", "Show this help, or a subcommand's: lrf help [COMMAND]");
+  std::vector<std::string> help_topic;
+  help->add_option("command", help_topic, "Subcommand to describe");
+
+  auto& regs = cli::registrations();
+  std::stable_sort(regs.begin(), regs.end(), [](auto& a, auto& b) { return a.order < b.order; });
+  for (auto& r : regs) r.setup(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  if (help->parsed()) {
+    CLI::App* target = &app;
+    for (const auto& name : help_topic) {
+      try {
+        target = target->get_subcommand(name);
+      } catch (const CLI::OptionNotFound&) {
+        std::fprintf(stderr, "error: no subcommand '%s'\n", name.c_str());
+        return 2;
+      }
+    }
+    std::printf("%s", target->help().c_str());
+    return 0;
+  }
+
+  set_log_mode(log_json ? LogMode::json : quiet ? LogMode::quiet : LogMode::normal);
+  set_thread_count(threads);
+  for (auto& [command, run] : cli::runners()) {
+    if (!command->parsed()) continue;
+    bool leaf = true;
+    for (auto* sub : command->get_subcommands()) leaf = leaf && !sub->parsed();
+    if (!leaf) continue;
+    try {
+      return run();
+    } catch (const lrf::Error& e) {
+      log_error(e.what());
+      return 1;
+    } catch (const c10::Error& e) {
+      log_error(std::string("libtorch: ") + e.what_without_backtrace());
+      return 1;
+    } catch (const std::exception& e) {
+      log_error(e.what());
+      return 1;
+    }
+  }
+  std::fprintf(stderr, "%s", app.help().c_str());
+  return 2;
+}

@@ -1,0 +1,15 @@
+#pragma once
+// Crash-safe writes: results go to a temporary file in the same folder, are flushed to disk, and are
+// renamed over the target, so a reader sees either the old file or the complete new one, never a part.
+#include <functional>
+#include <string>
+
+namespace lrf {
+
+void write_file_atomic(const std::string& path, const std::string& bytes);
+// For writers that need a path (OpenCV, libtorch): `write` writes to the given temporary path, then it
+// is fsynced and renamed to `path`. The temporary file is removed if `write` throws.
+void write_atomic_with(const std::string& path, const std::function<void(const std::string&)>& write);
+std::string read_file(const std::string& path);
+
+}  // namespace lrf

@@ -1,0 +1,58 @@
+#include "lrf/core/run_info.h"
+
+#include <ctime>
+
+#include <opencv2/core/version.hpp>
+#include <torch/version.h>
+
+#include "lrf/build_info.h"
+#include "lrf/core/atomic_file.h"
+#include "lrf/core/error.h"
+#include "lrf/core/threads.h"
+
+namespace lrf {
+namespace {
+std::vector<std::string> g_command;
+}
+
+void set_command_line(int argc, char** argv) {
+  g_command.assign(argv, argv + argc);
+}
+
+const std::vector<std::string>& command_line() { return g_command; }
+
+nlohmann::json version_info() {
+  return {{"lrf", LRF_VERSION},
+          {"git", LRF_GIT_COMMIT},
+          {"build", LRF_BUILD_TYPE},
+          {"libtorch", TORCH_VERSION},
+          {"opencv", CV_VERSION},
+          {"threads", thread_count()}};
+}
+
+std::string version_string() {
+  return std::string("lrf ") + LRF_VERSION + " (git " + LRF_GIT_COMMIT + ", " + LRF_BUILD_TYPE +
+         ", libtorch " + TORCH_VERSION + ", OpenCV " + CV_VERSION + ")";
+}
+
+nlohmann::json run_record(const nlohmann::json& options) {
+  std::time_t now = std::time(nullptr);
+  char buf[64];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  return {{"command", g_command}, {"versions", version_info()}, {"time", buf}, {"options", options}};
+}
+
+void write_json_file(const std::string& path, const nlohmann::json& value) {
+  write_file_atomic(path, value.dump(2) + "\n");
+}
+
+nlohmann::json read_json_file(const std::string& path) {
+  std::string text = read_file(path);
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    fail(path, std::string("invalid JSON: ") + e.what());
+  }
+}
+
+}  // namespace lrf

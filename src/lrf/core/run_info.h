@@ -1,0 +1,23 @@
+#pragma once
+// What produced an output folder: the command line, the options, the versions of lrf and its libraries.
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace lrf {
+
+// The command line of this process, set once by main().
+void set_command_line(int argc, char** argv);
+const std::vector<std::string>& command_line();
+// {"lrf": ..., "git": ..., "libtorch": ..., "opencv": ..., "build": ...}
+nlohmann::json version_info();
+std::string version_string();
+// {"command": [...], "versions": {...}, "time": ISO-8601, "options": options}
+nlohmann::json run_record(const nlohmann::json& options);
+// Writes pretty JSON atomically.
+void write_json_file(const std::string& path, const nlohmann::json& value);
+// Parses a JSON file, naming the file in any error.
+nlohmann::json read_json_file(const std::string& path);
+
+}  // namespace lrf

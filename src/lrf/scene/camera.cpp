@@ -1,0 +1,66 @@
+#include "lrf/scene/camera.h"
+
+#include <cmath>
+
+namespace lrf {
+
+Eigen::Matrix4d Camera::world_to_camera() const {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = R;
+  m.topRightCorner<3, 1>() = t;
+  return m;
+}
+
+Eigen::Matrix4d Camera::camera_to_world() const {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = R.transpose();
+  m.topRightCorner<3, 1>() = center();
+  return m;
+}
+
+Eigen::Matrix3d Camera::K() const {
+  Eigen::Matrix3d k;
+  k << fx, 0, cx, 0, fy, cy, 0, 0, 1;
+  return k;
+}
+
+bool Camera::project(const Eigen::Vector3d& world, Eigen::Vector2d* pixel, double* depth) const {
+  Eigen::Vector3d p = R * world + t;
+  if (depth) *depth = p.z();
+  if (p.z() <= 0) return false;
+  if (pixel) *pixel = {fx * p.x() / p.z() + cx, fy * p.y() / p.z() + cy};
+  return true;
+}
+
+Camera Camera::resized(int new_width, int new_height) const {
+  // Pixel centres sit at +0.5, so scaling maps continuous coordinates x -> x * s exactly.
+  Camera c = *this;
+  double sx = double(new_width) / width, sy = double(new_height) / height;
+  c.width = new_width;
+  c.height = new_height;
+  c.fx *= sx;
+  c.cx *= sx;
+  c.fy *= sy;
+  c.cy *= sy;
+  return c;
+}
+
+Camera Camera::cropped(int x0, int y0, int w, int h) const {
+  Camera c = *this;
+  c.width = w;
+  c.height = h;
+  c.cx -= x0;
+  c.cy -= y0;
+  return c;
+}
+
+double Camera::fov_x() const { return 2.0 * std::atan(width / (2.0 * fx)); }
+double Camera::fov_y() const { return 2.0 * std::atan(height / (2.0 * fy)); }
+
+bool Distortion::any() const {
+  for (double v : k)
+    if (v != 0) return true;
+  return false;
+}
+
+}  // namespace lrf
