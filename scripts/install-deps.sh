@@ -8,11 +8,11 @@ packages=(
   libtorch-dev libopenblas0-openmp libopenblas-dev
   libopencv-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
-  python3-numpy
+  python3-numpy python3-torch
 )
 # Optional: colmap (SfM tool of the field, used only when a user asks for it) and the PyTorch
 # reference used by tests that compare our networks with PyTorch's.
-optional=(colmap python3-torch)
+optional=(colmap)
 
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
