@@ -31,6 +31,7 @@ struct View {
   std::string image_path;  // absolute or relative path of the file actually decoded
   Camera camera;           // at the resolution in use, after undistortion and crop
   // How to turn the decoded file into the image that `camera` describes.
+  int nominal_width = 0, nominal_height = 0;  // resolution the poses file describes (COLMAP's pixels)
   int file_width = 0, file_height = 0;  // size of the decoded file
   int resize_width = 0, resize_height = 0;  // after area resize (== file size when none)
   Camera distorted_camera;                  // intrinsics at resize resolution, before the crop
@@ -66,6 +67,10 @@ class Scene {
   double camera_extent() const;
   Eigen::Vector3d camera_mean() const;
 };
+
+// Maps pixel coordinates of view `v` at its nominal resolution (as COLMAP stores keypoints) to the
+// resolution in use: scaled, undistorted and shifted by the crop, like the view's camera.
+std::vector<Eigen::Vector2d> nominal_to_view_pixels(const View& v, const std::vector<Eigen::Vector2d>& pixels);
 
 // Loads the scene at `root` (auto-detecting COLMAP, LLFF or NeRF transforms.json unless
 // options.format says which). Throws lrf::Error naming the file and the problem.

@@ -122,6 +122,16 @@ std::vector<int> split_test(const Scene& scene, const RawScene& raw, const Scene
 
 }  // namespace
 
+std::vector<Eigen::Vector2d> nominal_to_view_pixels(const View& v, const std::vector<Eigen::Vector2d>& pixels) {
+  const double nx = double(v.resize_width) / v.nominal_width, ny = double(v.resize_height) / v.nominal_height;
+  std::vector<Eigen::Vector2d> out;
+  out.reserve(pixels.size());
+  for (const auto& p : pixels) out.emplace_back(p.x() * nx, p.y() * ny);
+  if (v.distortion.any()) out = undistort_points(out, v.distorted_camera, v.distortion);
+  for (auto& p : out) p -= Eigen::Vector2d(v.crop_x, v.crop_y);
+  return out;
+}
+
 Scene load_scene(const std::string& root, const SceneOptions& o) {
   std::string format = o.format.empty() ? detect_scene_format(root) : o.format;
   if (!fs::is_directory(root)) fail(root, "scene folder not found");
@@ -182,14 +192,13 @@ Scene load_scene(const std::string& root, const SceneOptions& o) {
       h -= h % 8;
     }
     v.camera = v.distorted_camera.cropped(v.crop_x, v.crop_y, w, h);
-    const double nx = double(v.resize_width) / rv.camera.width, ny = double(v.resize_height) / rv.camera.height;
+    v.nominal_width = rv.camera.width;
+    v.nominal_height = rv.camera.height;
     std::vector<Eigen::Vector2d> pix;
     pix.reserve(rv.observations.size());
-    for (const auto& ob : rv.observations) pix.emplace_back(ob.pixel.x() * nx, ob.pixel.y() * ny);
-    if (v.distortion.any()) pix = undistort_points(pix, v.distorted_camera, v.distortion);
-    for (size_t k = 0; k < pix.size(); ++k) {
-      v.observations.push_back({pix[k] - Eigen::Vector2d(v.crop_x, v.crop_y), rv.observations[k].point_id});
-    }
+    for (const auto& ob : rv.observations) pix.push_back(ob.pixel);
+    pix = nominal_to_view_pixels(v, pix);
+    for (size_t k = 0; k < pix.size(); ++k) v.observations.push_back({pix[k], rv.observations[k].point_id});
     scene.views.push_back(std::move(v));
   }
 

@@ -1,0 +1,116 @@
+// Correspondences: file format, sources (tracks, SIFT matcher) and their epipolar error under known poses.
+#include <algorithm>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "lrf/align/correspondences.h"
+#include "lrf/core/atomic_file.h"
+#include "lrf/core/error.h"
+#include "test_helpers.h"
+
+namespace {
+
+TEST(Correspondences, SequentialPairsFollowColmap) {
+  // overlap 2, no quadratic: (i, i+1), (i, i+2).
+  auto p = lrf::sequential_pairs(5, 2, 0);
+  EXPECT_EQ(p.size(), 4u + 3u);
+  // overlap 2 + quadratic: i + 2^0 and i + 2^1 are already there; nothing new.
+  EXPECT_EQ(lrf::sequential_pairs(5, 2, 1).size(), 7u);
+  // overlap 3 + quadratic adds i + 4 (k = 2).
+  auto q = lrf::sequential_pairs(8, 3, 1);
+  EXPECT_NE(std::find(q.begin(), q.end(), std::make_pair(0, 4)), q.end());
+  EXPECT_EQ(std::find(q.begin(), q.end(), std::make_pair(0, 5)), q.end());
+}
+
+TEST(Correspondences, EpipolarDistanceIsZeroForTrueMatchesAndGrowsOffTheLine) {
+  lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene());
+  auto set = lrf::correspondences_from_tracks(s, 15);
+  ASSERT_FALSE(set.pairs.empty());
+  const auto& p = set.pairs[0];
+  const auto& ci = s.views[p.view_i].camera;
+  const auto& cj = s.views[p.view_j].camera;
+  Eigen::Vector2d a = p.xi[0].cast<double>(), b = p.xj[0].cast<double>();
+  EXPECT_LT(lrf::epipolar_distance(ci, cj, a, b), 1e-3);  // float32 pixel storage
+  // Moving the match along the image by 5 px moves it off the epipolar line by at most 5 px, and by
+  // more than 0 unless the motion is along the line: test with both axes.
+  double dx = lrf::epipolar_distance(ci, cj, a, b + Eigen::Vector2d(5, 0));
+  double dy = lrf::epipolar_distance(ci, cj, a, b + Eigen::Vector2d(0, 5));
+  EXPECT_LE(std::max(dx, dy), 5.0 + 1e-3);
+  EXPECT_GT(std::hypot(dx, dy), 4.99);  // the line's normal is a unit vector: dx^2 + dy^2 = 25
+}
+
+TEST(Correspondences, TracksOfTheSyntheticSceneAreExact) {
+  lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene());
+  auto set = lrf::correspondences_from_tracks(s, 15);
+  auto sum = lrf::summarize(set, s);
+  EXPECT_GT(sum.pairs, 5u);
+  EXPECT_LT(sum.epipolar_median_px, 1e-3);
+  auto train_only = lrf::correspondences_from_tracks(s, 15, true);
+  for (const auto& p : train_only.pairs) {
+    EXPECT_NE(p.view_i, 0);  // view 0 is the test view of an 8-view scene
+    EXPECT_NE(p.view_j, 0);
+  }
+}
+
+// The synthetic scene's periodic textures (checkers, stripes) and dominant ground plane make SIFT matches
+// ambiguous and the fundamental matrix degenerate, so geometric accuracy is tested on the real beer-can
+// below; here: the matcher's pair rules and the test-view exclusion.
+TEST(Correspondences, MatcherKeepsOnlyPairsThatPassItsRules) {
+  lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene({12, "256x192", 2, 200}));
+  lrf::MatchOptions o;
+  o.training_views_only = true;
+  o.min_inliers = 16;
+  auto set = lrf::correspondences_from_matching(s, o);  // throws if no pair passes
+  EXPECT_GE(set.pairs.size(), 1u);
+  for (const auto& p : set.pairs) {
+    EXPECT_GE(p.xi.size(), 16u);
+    EXPECT_LT(p.view_i, p.view_j);
+    EXPECT_NE(p.view_i % 8, 0);  // views 0 and 8 are test views
+    EXPECT_NE(p.view_j % 8, 0);
+  }
+}
+
+TEST(Correspondences, BeerCanTracksAndMatcherUnderKnownPoses) {
+  lrf::SceneOptions so;
+  so.downscale = 4;  // 180x320: keeps the test fast
+  lrf::Scene s = lrf::load_scene(lrf::test::scene_dir("beer-can"), so);
+  auto tracks = lrf::summarize(lrf::correspondences_from_tracks(s, 15), s);
+  EXPECT_GT(tracks.pairs, 500u);
+  EXPECT_LT(tracks.epipolar_median_px, 1.5);
+  lrf::MatchOptions o;
+  o.sequential_overlap = 3;
+  auto match = lrf::summarize(lrf::correspondences_from_matching(s, o), s);
+  EXPECT_GT(match.pairs, 20u);
+  EXPECT_LT(match.epipolar_median_px, 1.5);
+}
+
+TEST(Correspondences, FileRoundTripAndCorruption) {
+  lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene());
+  auto set = lrf::correspondences_from_tracks(s, 15);
+  lrf::test::TempDir tmp("corr");
+  std::string path = tmp / "c.corr";
+  lrf::write_correspondences(path, set);
+  auto back = lrf::read_correspondences(path);
+  ASSERT_EQ(back.pairs.size(), set.pairs.size());
+  EXPECT_EQ(back.view_names, set.view_names);
+  EXPECT_EQ(back.pairs[1].xj, set.pairs[1].xj);
+  std::string bytes = lrf::read_file(path);
+  EXPECT_THROW(lrf::parse_correspondences(bytes.substr(0, bytes.size() - 3), path), lrf::Error);
+  EXPECT_THROW(lrf::parse_correspondences("LRFCORR1\xff\xff\xff\x7f", path), lrf::Error);
+  EXPECT_THROW(lrf::parse_correspondences("garbage", path), lrf::Error);
+}
+
+TEST(Correspondences, SceneWithoutTracksIsAClearError) {
+  lrf::SceneOptions so;
+  so.images_dir = "images_8";
+  lrf::Scene fern = lrf::load_scene(lrf::test::scene_dir("llff-fern"), so);
+  try {
+    lrf::correspondences_from_tracks(fern, 15);
+    FAIL();
+  } catch (const lrf::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no COLMAP tracks"), std::string::npos);
+  }
+}
+
+}  // namespace
