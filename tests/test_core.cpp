@@ -69,3 +69,42 @@ TEST(RunInfo, JsonRoundTripAndBadJsonNamesFile) {
   EXPECT_THROW(lrf::read_json_file(path.string()), lrf::Error);
   fs::remove(path);
 }
+
+#include "lrf/core/npy.h"
+
+namespace {
+std::string make_npy(const std::string& dict, const std::string& data) {
+  std::string header = dict;
+  while ((10 + header.size() + 1) % 16) header += ' ';
+  header += '\n';
+  std::string out = "\x93NUMPY\x01";
+  out += '\0';
+  out += static_cast<char>(header.size());
+  out += '\0';
+  return out + header + data;
+}
+}  // namespace
+
+TEST(Npy, ParsesFloat64AndFloat32AndRefusesTheRest) {
+  double d[2] = {1.5, -2.25};
+  auto a = lrf::parse_npy(make_npy("{'descr': '<f8', 'fortran_order': False, 'shape': (2,), }",
+                                   std::string(reinterpret_cast<char*>(d), 16)),
+                          "a.npy");
+  EXPECT_EQ(a.shape, (std::vector<int64_t>{2}));
+  EXPECT_EQ(a.data, (std::vector<double>{1.5, -2.25}));
+  float f[4] = {1, 2, 3, 4};
+  auto b = lrf::parse_npy(make_npy("{'descr': '<f4', 'fortran_order': False, 'shape': (2, 2), }",
+                                   std::string(reinterpret_cast<char*>(f), 16)),
+                          "b.npy");
+  EXPECT_EQ(b.shape, (std::vector<int64_t>{2, 2}));
+  EXPECT_EQ(b.data[3], 4.0);
+  auto bad = [](const std::string& dict, size_t bytes) {
+    return lrf::parse_npy(make_npy(dict, std::string(bytes, '\0')), "c.npy");
+  };
+  EXPECT_THROW(bad("{'descr': '<f8', 'fortran_order': False, 'shape': (3,), }", 16), lrf::Error);  // short data
+  EXPECT_THROW(bad("{'descr': '<i8', 'fortran_order': False, 'shape': (2,), }", 16), lrf::Error);  // dtype
+  EXPECT_THROW(bad("{'descr': '<f8', 'fortran_order': True, 'shape': (2,), }", 16), lrf::Error);   // order
+  EXPECT_THROW(bad("{'descr': '<f8', 'fortran_order': False, 'shape': (99999999999, 99999999999), }", 16),
+               lrf::Error);  // absurd shape refused before any allocation
+  EXPECT_THROW(lrf::parse_npy("not numpy", "d.npy"), lrf::Error);
+}

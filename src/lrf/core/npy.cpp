@@ -1,7 +1,6 @@
 #include "lrf/core/npy.h"
 
 #include <cstring>
-#include <regex>
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
@@ -30,9 +29,21 @@ NpyArray parse_npy(const std::string& bytes, const std::string& path) {
   std::string header = bytes.substr(offset, header_len);
   offset += header_len;
 
-  std::smatch m;
-  if (!std::regex_search(header, m, std::regex("'descr'\\s*:\\s*'([^']*)'"))) fail(path, "no dtype in .npy header");
-  std::string descr = m[1];
+  // The header is a Python dict literal; find the three keys by hand (std::regex recurses per character
+  // and can exhaust the stack on a long hostile header).
+  auto value_after = [&](const std::string& key) -> size_t {
+    size_t k = header.find("'" + key + "'");
+    if (k == std::string::npos) fail(path, "no '" + key + "' in .npy header");
+    size_t colon = header.find(':', k);
+    if (colon == std::string::npos) fail(path, "malformed .npy header");
+    size_t v = header.find_first_not_of(" \t", colon + 1);
+    if (v == std::string::npos) fail(path, "malformed .npy header");
+    return v;
+  };
+  size_t d = value_after("descr");
+  size_t d_end = header[d] == '\'' ? header.find('\'', d + 1) : std::string::npos;
+  if (d_end == std::string::npos) fail(path, "malformed dtype in .npy header");
+  std::string descr = header.substr(d + 1, d_end - d - 1);
   size_t item = 0;
   if (descr == "<f8") {
     item = 8;
@@ -41,19 +52,30 @@ NpyArray parse_npy(const std::string& bytes, const std::string& path) {
   } else {
     fail(path, "unsupported .npy dtype '" + descr + "' (expected float64 or float32)");
   }
-  if (std::regex_search(header, m, std::regex("'fortran_order'\\s*:\\s*True"))) {
+  if (header.compare(value_after("fortran_order"), 4, "True") == 0) {
     fail(path, "Fortran-ordered .npy arrays are not supported");
   }
-  if (!std::regex_search(header, m, std::regex("'shape'\\s*:\\s*\\(([^)]*)\\)"))) fail(path, "no shape in .npy header");
+  size_t sh = value_after("shape");
+  size_t sh_end = header[sh] == '(' ? header.find(')', sh) : std::string::npos;
+  if (sh_end == std::string::npos) fail(path, "malformed shape in .npy header");
   NpyArray out;
-  std::string dims = m[1];
-  std::regex num("\\d+");
   uint64_t count = 1;
-  for (auto it = std::sregex_iterator(dims.begin(), dims.end(), num); it != std::sregex_iterator(); ++it) {
-    uint64_t d = std::stoull(it->str());
-    if (d > (1ull << 40) || (d > 0 && count > (1ull << 40) / d)) fail(path, "absurd .npy shape");
-    count *= d;
-    out.shape.push_back(static_cast<int64_t>(d));
+  for (size_t i = sh + 1; i < sh_end;) {
+    if (header[i] == ' ' || header[i] == ',') {
+      ++i;
+      continue;
+    }
+    if (header[i] < '0' || header[i] > '9') fail(path, "malformed shape in .npy header");
+    uint64_t dim = 0;
+    while (i < sh_end && header[i] >= '0' && header[i] <= '9') {
+      dim = dim * 10 + static_cast<uint64_t>(header[i] - '0');
+      if (dim > (1ull << 40)) fail(path, "absurd .npy shape");
+      ++i;
+    }
+    if (dim > 0 && count > (1ull << 40) / dim) fail(path, "absurd .npy shape");
+    count *= dim;
+    out.shape.push_back(static_cast<int64_t>(dim));
+    if (out.shape.size() > 32) fail(path, "too many dimensions in .npy shape");
   }
   if (count * item != bytes.size() - offset) {
     fail(path, "corrupt .npy: shape needs " + std::to_string(count * item) + " data bytes, file has " +

@@ -44,8 +44,8 @@ const ModelInfo* model_by_name(const std::string& name) {
 
 // Reads non-empty, non-comment lines of a COLMAP text file, keeping empty lines when asked (images.txt
 // has an empty 2D-point line for images without keypoints).
-std::vector<std::string> data_lines(const std::string& path, bool keep_empty) {
-  std::istringstream in(read_file(path));
+std::vector<std::string> data_lines(const std::string& bytes, bool keep_empty) {
+  std::istringstream in(bytes);
   std::vector<std::string> lines;
   std::string line;
   while (std::getline(in, line)) {
@@ -61,8 +61,8 @@ bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
-std::map<uint32_t, ColmapCamera> read_cameras_bin(const std::string& path) {
-  BinaryReader r(read_file(path), path);
+std::map<uint32_t, ColmapCamera> parse_cameras_bin(const std::string& bytes, const std::string& path) {
+  BinaryReader r(bytes, path);
   uint64_t n = r.read<uint64_t>();
   r.require_records(n, 24, "cameras");
   std::map<uint32_t, ColmapCamera> cams;
@@ -85,9 +85,9 @@ std::map<uint32_t, ColmapCamera> read_cameras_bin(const std::string& path) {
   return cams;
 }
 
-std::map<uint32_t, ColmapCamera> read_cameras_txt(const std::string& path) {
+std::map<uint32_t, ColmapCamera> parse_cameras_txt(const std::string& bytes, const std::string& path) {
   std::map<uint32_t, ColmapCamera> cams;
-  for (const auto& line : data_lines(path, false)) {
+  for (const auto& line : data_lines(bytes, false)) {
     std::istringstream s(line);
     ColmapCamera c;
     if (!(s >> c.id >> c.model >> c.width >> c.height)) fail(path, "malformed camera line: " + line);
@@ -105,8 +105,8 @@ std::map<uint32_t, ColmapCamera> read_cameras_txt(const std::string& path) {
   return cams;
 }
 
-std::vector<ColmapImage> read_images_bin(const std::string& path) {
-  BinaryReader r(read_file(path), path);
+std::vector<ColmapImage> parse_images_bin(const std::string& bytes, const std::string& path) {
+  BinaryReader r(bytes, path);
   uint64_t n = r.read<uint64_t>();
   r.require_records(n, 4 + 7 * 8 + 4 + 1 + 8, "images");
   std::vector<ColmapImage> images;
@@ -132,8 +132,8 @@ std::vector<ColmapImage> read_images_bin(const std::string& path) {
   return images;
 }
 
-std::vector<ColmapImage> read_images_txt(const std::string& path) {
-  auto lines = data_lines(path, true);
+std::vector<ColmapImage> parse_images_txt(const std::string& bytes, const std::string& path) {
+  auto lines = data_lines(bytes, true);
   // Drop trailing empty lines only; inside the file an empty line is an image's empty keypoint list.
   while (!lines.empty() && lines.back().empty()) lines.pop_back();
   std::vector<ColmapImage> images;
@@ -165,8 +165,8 @@ std::vector<ColmapImage> read_images_txt(const std::string& path) {
   return images;
 }
 
-std::vector<ColmapPoint> read_points_bin(const std::string& path) {
-  BinaryReader r(read_file(path), path);
+std::vector<ColmapPoint> parse_points_bin(const std::string& bytes, const std::string& path) {
+  BinaryReader r(bytes, path);
   uint64_t n = r.read<uint64_t>();
   r.require_records(n, 8 + 24 + 3 + 8 + 8, "points");
   std::vector<ColmapPoint> points;
@@ -188,9 +188,9 @@ std::vector<ColmapPoint> read_points_bin(const std::string& path) {
   return points;
 }
 
-std::vector<ColmapPoint> read_points_txt(const std::string& path) {
+std::vector<ColmapPoint> parse_points_txt(const std::string& bytes, const std::string& path) {
   std::vector<ColmapPoint> points;
-  for (const auto& line : data_lines(path, false)) {
+  for (const auto& line : data_lines(bytes, false)) {
     std::istringstream s(line);
     ColmapPoint p;
     int r, g, b;
@@ -211,14 +211,23 @@ std::string pick(const std::string& dir, const std::string& stem) {
 
 }  // namespace
 
+std::map<uint32_t, ColmapCamera> parse_colmap_cameras(const std::string& bytes, const std::string& path, bool text) {
+  return text ? parse_cameras_txt(bytes, path) : parse_cameras_bin(bytes, path);
+}
+std::vector<ColmapImage> parse_colmap_images(const std::string& bytes, const std::string& path, bool text) {
+  return text ? parse_images_txt(bytes, path) : parse_images_bin(bytes, path);
+}
+std::vector<ColmapPoint> parse_colmap_points(const std::string& bytes, const std::string& path, bool text) {
+  return text ? parse_points_txt(bytes, path) : parse_points_bin(bytes, path);
+}
 std::map<uint32_t, ColmapCamera> read_colmap_cameras(const std::string& path) {
-  return ends_with(path, ".txt") ? read_cameras_txt(path) : read_cameras_bin(path);
+  return parse_colmap_cameras(read_file(path), path, ends_with(path, ".txt"));
 }
 std::vector<ColmapImage> read_colmap_images(const std::string& path) {
-  return ends_with(path, ".txt") ? read_images_txt(path) : read_images_bin(path);
+  return parse_colmap_images(read_file(path), path, ends_with(path, ".txt"));
 }
 std::vector<ColmapPoint> read_colmap_points(const std::string& path) {
-  return ends_with(path, ".txt") ? read_points_txt(path) : read_points_bin(path);
+  return parse_colmap_points(read_file(path), path, ends_with(path, ".txt"));
 }
 
 ColmapModel read_colmap_model(const std::string& dir) {
@@ -266,6 +275,53 @@ void write_colmap_text(const std::string& dir, const ColmapModel& model) {
   write_file_atomic((fs::path(dir) / "cameras.txt").string(), c.str());
   write_file_atomic((fs::path(dir) / "images.txt").string(), i.str());
   write_file_atomic((fs::path(dir) / "points3D.txt").string(), p.str());
+}
+
+namespace {
+template <typename T>
+void put(std::string* out, T v) {
+  out->append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+}  // namespace
+
+void write_colmap_binary(const std::string& dir, const ColmapModel& model) {
+  std::string c, i, p;
+  put<uint64_t>(&c, model.cameras.size());
+  for (const auto& [id, cam] : model.cameras) {
+    const ModelInfo* m = model_by_name(cam.model);
+    if (!m || static_cast<int>(cam.params.size()) != m->num_params) fail(dir, "cannot write camera model " + cam.model);
+    put<uint32_t>(&c, id);
+    put<int32_t>(&c, m->id);
+    put<uint64_t>(&c, static_cast<uint64_t>(cam.width));
+    put<uint64_t>(&c, static_cast<uint64_t>(cam.height));
+    for (double v : cam.params) put<double>(&c, v);
+  }
+  put<uint64_t>(&i, model.images.size());
+  for (const auto& im : model.images) {
+    put<uint32_t>(&i, im.id);
+    for (int k = 0; k < 4; ++k) put<double>(&i, im.qvec[k]);
+    for (int k = 0; k < 3; ++k) put<double>(&i, im.tvec[k]);
+    put<uint32_t>(&i, im.camera_id);
+    i += im.name;
+    i.push_back('\0');
+    put<uint64_t>(&i, im.xys.size());
+    for (size_t k = 0; k < im.xys.size(); ++k) {
+      put<double>(&i, im.xys[k].x());
+      put<double>(&i, im.xys[k].y());
+      put<int64_t>(&i, im.point3d_ids[k]);
+    }
+  }
+  put<uint64_t>(&p, model.points.size());
+  for (const auto& pt : model.points) {
+    put<uint64_t>(&p, static_cast<uint64_t>(pt.id));
+    for (int k = 0; k < 3; ++k) put<double>(&p, pt.xyz[k]);
+    for (int k = 0; k < 3; ++k) put<uint8_t>(&p, static_cast<uint8_t>(std::lround(std::clamp(pt.rgb[k], 0.f, 1.f) * 255.f)));
+    put<double>(&p, 0.0);
+    put<uint64_t>(&p, 0);
+  }
+  write_file_atomic((fs::path(dir) / "cameras.bin").string(), c);
+  write_file_atomic((fs::path(dir) / "images.bin").string(), i);
+  write_file_atomic((fs::path(dir) / "points3D.bin").string(), p);
 }
 
 void colmap_intrinsics(const ColmapCamera& cam, const std::string& path, double* fx, double* fy, double* cx,

@@ -48,8 +48,13 @@ ColmapModel read_colmap_model(const std::string& dir);
 std::map<uint32_t, ColmapCamera> read_colmap_cameras(const std::string& path);
 std::vector<ColmapImage> read_colmap_images(const std::string& path);
 std::vector<ColmapPoint> read_colmap_points(const std::string& path);
-// Writes the text format (used by the synthetic scene).
+// The same from bytes already in memory (`path` only names the source in errors).
+std::map<uint32_t, ColmapCamera> parse_colmap_cameras(const std::string& bytes, const std::string& path, bool text);
+std::vector<ColmapImage> parse_colmap_images(const std::string& bytes, const std::string& path, bool text);
+std::vector<ColmapPoint> parse_colmap_points(const std::string& bytes, const std::string& path, bool text);
+// Writes the text / binary formats (the synthetic scene, tests and fuzz seeds); points without tracks.
 void write_colmap_text(const std::string& dir, const ColmapModel& model);
+void write_colmap_binary(const std::string& dir, const ColmapModel& model);
 
 // Pinhole intrinsics (at the camera's own width/height) and distortion for a COLMAP camera model.
 // Throws for models lrf cannot undistort (FOV, THIN_PRISM_FISHEYE) or wrong parameter counts.
