@@ -42,6 +42,7 @@ void Autoencoder::save_decoder(const std::string& path) {
 }
 
 void Autoencoder::set_channels_last(bool on) {
+  channels_last_ = on;
   torch::NoGradGuard no_grad;
   auto format = on ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous;
   for (auto* m : {&encoder_module(), &decoder_module()}) {
@@ -49,6 +50,10 @@ void Autoencoder::set_channels_last(bool on) {
       if (p.dim() == 4) p.set_data(p.contiguous(format));
     }
   }
+}
+
+at::Tensor Autoencoder::to_layout(const at::Tensor& t) const {
+  return t.contiguous(channels_last_ ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous);
 }
 
 void Autoencoder::check_images(const at::Tensor& images) const {

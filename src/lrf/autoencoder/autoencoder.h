@@ -45,8 +45,11 @@ class Autoencoder {
   StateDict encoder_state();
   StateDict decoder_state();
 
-  // Stores weights in channels-last layout (can be faster for oneDNN convolutions on CPU).
+  // Runs the convolutions in channels-last layout (weights stored NHWC, inputs converted on entry):
+  // oneDNN is markedly faster so on CPU (see bench_autoencoder). On by default for models built by
+  // load_autoencoder. encode/decode always return contiguous (NCHW) tensors either way.
   void set_channels_last(bool on);
+  bool channels_last() const { return channels_last_; }
   // Where the weights came from (for logs and run records).
   const std::string& description() const { return description_; }
   void set_description(std::string d) { description_ = std::move(d); }
@@ -62,9 +65,12 @@ class Autoencoder {
   // Throws lrf::Error unless images are [B,3,H,W] with H, W positive multiples of 8.
   void check_images(const at::Tensor& images) const;
   void check_latents(const at::Tensor& latents) const;
+  // The network input in the layout chosen by set_channels_last.
+  at::Tensor to_layout(const at::Tensor& t) const;
 
  private:
   std::string description_;
+  bool channels_last_ = false;
 };
 
 // Loads an autoencoder by name ("taef2", "taesd", a folder name under a models directory) or by path

@@ -284,7 +284,7 @@ StateDict KLAutoencoder::decoder_keys(const StateDict& file) const {
 at::Tensor KLAutoencoder::encode_moments(const at::Tensor& images) {
   check_images(images);
   auto& e = static_cast<EncoderHalf&>(*encoder_);
-  at::Tensor moments = e.quant_conv(e.encoder(images * 2 - 1));
+  at::Tensor moments = e.quant_conv(e.encoder(to_layout(images * 2 - 1))).contiguous();
   auto parts = moments.chunk(2, 1);
   return torch::cat({parts[0], parts[1].clamp(-30.0, 20.0)}, 1);
 }
@@ -301,8 +301,8 @@ at::Tensor KLAutoencoder::encode_sample(const at::Tensor& images) {
 at::Tensor KLAutoencoder::decode(const at::Tensor& latents) {
   check_latents(latents);
   auto& d = static_cast<DecoderHalf&>(*decoder_);
-  at::Tensor x = d.decoder(d.post_quant_conv(latents));
-  return ((x + 1) * 0.5).clamp(0, 1);
+  at::Tensor x = d.decoder(d.post_quant_conv(to_layout(latents)));
+  return ((x + 1) * 0.5).clamp(0, 1).contiguous();
 }
 
 }  // namespace lrf

@@ -47,6 +47,7 @@ std::unique_ptr<Autoencoder> load_autoencoder(const std::string& name_or_path, c
     ae->load_decoder(decoder_override);
     description += ", decoder " + decoder_override;
   }
+  ae->set_channels_last(true);
   ae->set_description(description);
   return ae;
 }

@@ -130,12 +130,12 @@ void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>&
 
 at::Tensor TinyAutoencoder::encode(const at::Tensor& images) {
   check_images(images);
-  return encoder_->forward(images);
+  return encoder_->forward(to_layout(images)).contiguous();
 }
 
 at::Tensor TinyAutoencoder::decode(const at::Tensor& latents) {
   check_latents(latents);
-  return decoder_->forward(latents).clamp(0, 1);
+  return decoder_->forward(to_layout(latents)).clamp(0, 1).contiguous();
 }
 
 StateDict TinyAutoencoder::encoder_keys(const StateDict& file) const {
