@@ -234,6 +234,28 @@ TEST(TinyAutoencoder, FourAndSixteenChannelVariantsRoundTripThroughFiles) {
   fs::remove_all(dir);
 }
 
+TEST(TinyAutoencoder, DiffusersSingleFileLayoutLoads) {
+  // diffusers' AutoencoderTiny single file: "encoder.layers.N.*" and "decoder.layers.N.*", the decoder
+  // numbered without the leading clamp (layers.0 is our index 1).
+  lrf::StateDict enc = lrf::load_state_dict(taef2_dir() + "/taef2_encoder.pth");
+  lrf::StateDict dec = lrf::load_state_dict(taef2_dir() + "/taef2_decoder.pth");
+  lrf::StateDict single;
+  for (const auto& item : enc) single.insert("encoder.layers." + item.key(), item.value());
+  for (const auto& item : dec) {
+    auto dot = item.key().find('.');
+    int index = std::stoi(item.key().substr(0, dot));
+    single.insert("decoder.layers." + std::to_string(index - 1) + item.key().substr(dot), item.value());
+  }
+  auto dir = lrf_test::fresh_dir("tiny_single");
+  std::string file = (dir / "taef2.safetensors").string();
+  lrf::write_safetensors(file, single);
+  torch::NoGradGuard no_grad;
+  auto a = lrf::load_autoencoder(file), b = lrf::load_autoencoder(taef2_dir());
+  at::Tensor x = torch::rand({1, 3, 32, 32});
+  EXPECT_TRUE(torch::equal(a->decode(a->encode(x)), b->decode(b->encode(x))));
+  fs::remove_all(dir);
+}
+
 TEST(Resolve, FindsByNameInLrfModelsAndReportsWhereItLooked) {
   ::setenv("LRF_MODELS", (lrf_test::shared_dir() + "/models").c_str(), 1);
   auto files = lrf::resolve_autoencoder("taef2");

@@ -137,6 +137,20 @@ TEST(Pickle, RefusesUnknownOpcodesAndMalformedStreams) {
   expect_error([] { unpickle(B("\x80\x02}}.")); }, {"not balanced"});
 }
 
+TEST(Pickle, RefusesDeepNesting) {
+  // 1000 nested lists: [[[[...]]]] built as EMPTY_LIST MARK ... APPENDS.
+  std::string p = B("\x80\x02");
+  for (int i = 0; i < 1000; ++i) p += "](";
+  p += "]";
+  for (int i = 0; i < 1000; ++i) p += "e";
+  p += ".";
+  expect_error([&] { unpickle(p); }, {"deeper than"});
+  // Self-appending a memoised list (a cycle) is bounded the same way.
+  std::string cycle = B("\x80\x02]q\x00");
+  for (int i = 0; i < 200; ++i) cycle += B("h\x00" "a");
+  expect_error([&] { unpickle(cycle + "."); }, {"deeper than"});
+}
+
 TEST(Pickle, ParsesContainersAndScalars) {
   // {"a": [1, -2, 3.5], "b": (True, None), "c": 2**40}
   std::string p = B("\x80\x02}(X\x01\x00\x00\x00" "a](K\x01J\xfe\xff\xff\xff" "G@\x0c\x00\x00\x00\x00\x00\x00" "e"

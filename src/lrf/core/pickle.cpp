@@ -1,5 +1,6 @@
 #include "lrf/core/pickle.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <unordered_map>
@@ -16,6 +17,9 @@ namespace {
 constexpr std::size_t kMaxPickleBytes = 512u << 20;
 constexpr std::size_t kMaxObjects = 50'000'000;
 constexpr std::size_t kMaxDims = 16;
+// Nesting bound: a state dict nests 3-4 levels; unbounded nesting would overflow the stack when the
+// value tree is destroyed.
+constexpr int kMaxDepth = 100;
 
 struct StorageType {
   const char* name;
@@ -112,6 +116,7 @@ class Unpickler {
         case 't': {                                                           // TUPLE
           auto v = make(Value::Kind::tuple);
           v->items = pop_mark();
+          nest(*v, v->items);
           push(v);
           break;
         }
@@ -121,6 +126,7 @@ class Unpickler {
           auto v = make(Value::Kind::tuple);
           v->items.assign(stack_.end() - static_cast<std::ptrdiff_t>(n), stack_.end());
           stack_.resize(stack_.size() - n);
+          nest(*v, v->items);
           push(v);
           break;
         }
@@ -128,18 +134,22 @@ class Unpickler {
         case 'l': {                                      // LIST
           auto v = make(Value::Kind::list);
           v->items = pop_mark();
+          nest(*v, v->items);
           push(v);
           break;
         }
         case 'a': {  // APPEND
           Ref item = pop();
-          expect(top(), Value::Kind::list, "APPEND")->items.push_back(item);
+          Ref list = expect(top(), Value::Kind::list, "APPEND");
+          nest(*list, {item});
+          list->items.push_back(item);
           break;
         }
         case 'e': {  // APPENDS
           auto items = pop_mark();
-          auto& list = expect(top(), Value::Kind::list, "APPENDS")->items;
-          list.insert(list.end(), items.begin(), items.end());
+          Ref list = expect(top(), Value::Kind::list, "APPENDS");
+          nest(*list, items);
+          list->items.insert(list->items.end(), items.begin(), items.end());
           break;
         }
         case '}': push(make(Value::Kind::dict)); break;  // EMPTY_DICT
@@ -268,8 +278,16 @@ class Unpickler {
     v->text.assign(reinterpret_cast<const char*>(take(static_cast<std::size_t>(n))), static_cast<std::size_t>(n));
     push(v);
   }
+  // Records that `children` go into `container`, refusing excessive nesting.
+  void nest(Value& container, const std::vector<Ref>& children) {
+    for (const auto& c : children) {
+      container.depth = std::max(container.depth, c->depth + 1);
+      if (container.depth > kMaxDepth) bad("pickle nests containers deeper than " + std::to_string(kMaxDepth));
+    }
+  }
   void set_items(Value& dict, const std::vector<Ref>& kv) {
     if (kv.size() % 2) bad("malformed pickle: odd number of dict items");
+    nest(dict, kv);
     for (std::size_t i = 0; i < kv.size(); i += 2) dict.entries.emplace_back(kv[i], kv[i + 1]);
   }
   void memo_put(std::uint64_t index) {

@@ -30,6 +30,7 @@ struct Value {
   std::vector<Ref> items;                    // tuple, list
   std::vector<std::pair<Ref, Ref>> entries;  // dict (insertion order)
   at::Tensor tensor;                         // tensor, or a 1-D storage returned by the persistent loader
+  int depth = 0;                             // container nesting below this value (bounded)
 };
 
 // Resolves a persistent id (the tuple after BINPERSID) to a value, typically a storage tensor.
