@@ -1,0 +1,77 @@
+#include "lrf/autoencoder/autoencoder.h"
+
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/strict_load.h"
+#include "lrf/core/error.h"
+#include "lrf/core/safetensors.h"
+
+namespace lrf {
+namespace {
+
+std::vector<at::Tensor> params(torch::nn::Module& m) { return m.parameters(true); }
+
+void set_trainable(torch::nn::Module& m, bool on) {
+  for (auto& p : m.parameters(true)) p.requires_grad_(on);
+}
+
+}  // namespace
+
+std::vector<at::Tensor> Autoencoder::encoder_parameters() { return params(encoder_module()); }
+std::vector<at::Tensor> Autoencoder::decoder_parameters() { return params(decoder_module()); }
+void Autoencoder::set_encoder_trainable(bool trainable) { set_trainable(encoder_module(), trainable); }
+void Autoencoder::set_decoder_trainable(bool trainable) { set_trainable(decoder_module(), trainable); }
+
+void Autoencoder::load_encoder(const std::string& path) {
+  load_strict(encoder_module(), encoder_keys(load_state_dict(path)), path + " (" + kind() + " encoder)");
+}
+
+void Autoencoder::load_decoder(const std::string& path) {
+  load_strict(decoder_module(), decoder_keys(load_state_dict(path)), path + " (" + kind() + " decoder)");
+}
+
+StateDict Autoencoder::encoder_state() { return module_state(encoder_module()); }
+StateDict Autoencoder::decoder_state() { return module_state(decoder_module()); }
+
+void Autoencoder::save_encoder(const std::string& path) {
+  write_safetensors(path, encoder_state(), {{"lrf_autoencoder", kind()}, {"lrf_half", "encoder"}});
+}
+
+void Autoencoder::save_decoder(const std::string& path) {
+  write_safetensors(path, decoder_state(), {{"lrf_autoencoder", kind()}, {"lrf_half", "decoder"}});
+}
+
+void Autoencoder::set_channels_last(bool on) {
+  channels_last_ = on;
+  torch::NoGradGuard no_grad;
+  auto format = on ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous;
+  for (auto* m : {&encoder_module(), &decoder_module()}) {
+    for (auto& p : m->parameters(true)) {
+      if (p.dim() == 4) p.set_data(p.contiguous(format));
+    }
+  }
+}
+
+at::Tensor Autoencoder::to_layout(const at::Tensor& t) const {
+  return t.contiguous(channels_last_ ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous);
+}
+
+void Autoencoder::check_images(const at::Tensor& images) const {
+  if (images.dim() != 4 || images.size(1) != 3) {
+    fail("autoencoder: images must be [B,3,H,W], got " + std::string(c10::str(images.sizes())));
+  }
+  if (images.size(2) < 8 || images.size(3) < 8 || images.size(2) % 8 || images.size(3) % 8) {
+    fail("autoencoder: image height and width must be positive multiples of 8, got " +
+         std::to_string(images.size(2)) + "x" + std::to_string(images.size(3)) +
+         " (crop or pad the image first; the CLI centre-crops)");
+  }
+}
+
+void Autoencoder::check_latents(const at::Tensor& latents) const {
+  if (latents.dim() != 4 || latents.size(1) != latent_channels()) {
+    fail("autoencoder: latents must be [B," + std::to_string(latent_channels()) + ",h,w], got " +
+         std::string(c10::str(latents.sizes())));
+  }
+}
+
+}  // namespace lrf

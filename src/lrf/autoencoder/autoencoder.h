@@ -1,0 +1,84 @@
+#pragma once
+// One interface for the image autoencoders whose latent space the radiance fields live in.
+// Images are [B, 3, H, W] float32 in [0, 1] with H and W multiples of 8 (each model maps to its own
+// input range inside); latents are "raw": exactly what the network's encoder outputs, no scaling.
+// Every module stays trainable: Stage I fine-tunes encoder_parameters() with the decoder frozen, Stage
+// III the reverse, and both call encode/decode under autograd.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <torch/nn/module.h>
+
+#include "lrf/core/state_dict.h"
+
+namespace lrf {
+
+class Autoencoder {
+ public:
+  virtual ~Autoencoder() = default;
+  // "tiny" (TAESD family) or "kl-f8" (Stable Diffusion's AutoencoderKL).
+  virtual std::string kind() const = 0;
+  virtual int latent_channels() const = 0;
+  int factor() const { return 8; }
+
+  // [B,3,H,W] in [0,1] -> [B,C,H/8,W/8]. The KL-VAE returns its posterior mean.
+  virtual at::Tensor encode(const at::Tensor& images) = 0;
+  // A sample of the posterior (the KL-VAE); deterministic encoders return encode().
+  virtual at::Tensor encode_sample(const at::Tensor& images) { return encode(images); }
+  // [B,C,h,w] -> [B,3,8h,8w] clamped to [0,1].
+  virtual at::Tensor decode(const at::Tensor& latents) = 0;
+
+  std::vector<at::Tensor> encoder_parameters();
+  std::vector<at::Tensor> decoder_parameters();
+  // Freezes or unfreezes one half (requires_grad), for fine-tuning the other.
+  void set_encoder_trainable(bool trainable);
+  void set_decoder_trainable(bool trainable);
+
+  // Replace one half's weights (fine-tuned checkpoints): any format load_state_dict reads, any key
+  // layout the model understands. Strict: missing, unexpected or mis-shaped keys are one error.
+  void load_encoder(const std::string& path);
+  void load_decoder(const std::string& path);
+  // One half's weights, float32, in the model's native key layout, as safetensors (atomic write).
+  void save_encoder(const std::string& path);
+  void save_decoder(const std::string& path);
+  StateDict encoder_state();
+  StateDict decoder_state();
+
+  // Runs the convolutions in channels-last layout (weights stored NHWC, inputs converted on entry):
+  // oneDNN is markedly faster so on CPU (see bench_autoencoder). On by default for models built by
+  // load_autoencoder. encode/decode always return contiguous (NCHW) tensors either way.
+  void set_channels_last(bool on);
+  bool channels_last() const { return channels_last_; }
+  // Where the weights came from (for logs and run records).
+  const std::string& description() const { return description_; }
+  void set_description(std::string d) { description_ = std::move(d); }
+
+ protected:
+  // The two halves, whose parameter names are the native key names.
+  virtual torch::nn::Module& encoder_module() = 0;
+  virtual torch::nn::Module& decoder_module() = 0;
+  // Maps a file's keys to native names of one half (other layouts renamed; keys of the other half
+  // dropped). Anything else is kept so that strict loading reports it.
+  virtual StateDict encoder_keys(const StateDict& file) const = 0;
+  virtual StateDict decoder_keys(const StateDict& file) const = 0;
+  // Throws lrf::Error unless images are [B,3,H,W] with H, W positive multiples of 8.
+  void check_images(const at::Tensor& images) const;
+  void check_latents(const at::Tensor& latents) const;
+  // The network input in the layout chosen by set_channels_last.
+  at::Tensor to_layout(const at::Tensor& t) const;
+
+ private:
+  std::string description_;
+  bool channels_last_ = false;
+};
+
+// Loads an autoencoder by name ("taef2", "taesd", a folder name under a models directory) or by path
+// (a folder holding *encoder* and *decoder* weight files, or one weights file holding both halves),
+// chooses the architecture from the weights, and optionally replaces either half with a fine-tuned
+// checkpoint. See resolve.h for the search order.
+std::unique_ptr<Autoencoder> load_autoencoder(const std::string& name_or_path,
+                                              const std::string& encoder_override = "",
+                                              const std::string& decoder_override = "");
+
+}  // namespace lrf

@@ -1,0 +1,18 @@
+#pragma once
+// Between OpenCV images (RGB float32 [0,1], HWC) and autoencoder tensors ([B,3,H,W]).
+#include <ATen/Tensor.h>
+#include <opencv2/core.hpp>
+
+namespace lrf {
+
+// The largest centred crop whose width and height are multiples of `multiple` (the paper's code crops
+// this way). Throws lrf::Error if the image is smaller than `multiple` in either direction.
+cv::Mat center_crop_to_multiple(const cv::Mat& image, int multiple);
+// CV_32FC3 -> [1,3,H,W] float32 (a copy).
+at::Tensor image_to_tensor(const cv::Mat& rgb);
+// [3,H,W] or [1,3,H,W] -> CV_32FC3 (a copy).
+cv::Mat tensor_to_image(const at::Tensor& image);
+// Peak signal-to-noise ratio of two images in [0,1] (peak 1), over all elements.
+double psnr(const at::Tensor& a, const at::Tensor& b);
+
+}  // namespace lrf

@@ -1,0 +1,149 @@
+#include "lrf/autoencoder/tiny_ae.h"
+
+#include <regex>
+
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/strict_load.h"
+#include "lrf/core/error.h"
+
+namespace lrf {
+namespace {
+
+namespace nn = torch::nn;
+
+nn::Conv2d conv3(int in, int out, int stride = 1, bool bias = true) {
+  return nn::Conv2d(nn::Conv2dOptions(in, out, 3).stride(stride).padding(1).bias(bias));
+}
+nn::Conv2d conv1(int in, int out) { return nn::Conv2d(nn::Conv2dOptions(in, out, 1).bias(false)); }
+
+// Residual block: relu(conv(x) + x), three 3x3 convs with ReLUs between them; optionally preceded by
+// TAEF2's global-statistics branch x += pool(x).
+struct TinyBlockImpl : nn::Module {
+  TinyBlockImpl(int channels, bool with_pool) {
+    conv = register_module("conv", nn::Sequential(conv3(channels, channels), nn::ReLU(), conv3(channels, channels),
+                                                  nn::ReLU(), conv3(channels, channels)));
+    if (with_pool) {
+      // Widening x4 and 4 groups: the shapes of TAEF2's weights (256 = 4 x 64 channels).
+      const int wide = channels * 4;
+      pool = register_module("pool", nn::Sequential(conv1(channels, wide), nn::GroupNorm(nn::GroupNormOptions(4, wide)),
+                                                    nn::ReLU(), conv1(wide, channels)));
+    }
+  }
+  at::Tensor forward(at::Tensor x) {
+    if (pool) x = x + pool->forward(x);
+    return torch::relu(conv->forward(x) + x);
+  }
+  nn::Sequential conv{nullptr};
+  nn::Sequential pool{nullptr};
+};
+TORCH_MODULE(TinyBlock);
+
+nn::Upsample upsample2() {
+  return nn::Upsample(nn::UpsampleOptions().scale_factor(std::vector<double>{2.0, 2.0}).mode(torch::kNearest));
+}
+
+const std::regex kIndexKey(R"(^(\d+)\.(.*)$)");
+
+// Indices of blocks that carry the pool branch, from keys like "11.pool.0.weight".
+std::set<int> pool_blocks(const StateDict& sd) {
+  std::set<int> out;
+  std::smatch m;
+  for (const auto& item : sd) {
+    if (std::regex_match(item.key(), m, kIndexKey) && m[2].str().rfind("pool.", 0) == 0) out.insert(std::stoi(m[1]));
+  }
+  return out;
+}
+
+// Renames "<prefix>N.rest" to "(N+shift).rest", drops keys of the other half, keeps anything else
+// unchanged so that strict loading reports it.
+StateDict canonical(const StateDict& file, const std::string& own, const std::string& other, int shift) {
+  StateDict out;
+  std::smatch m;
+  for (const auto& item : file) {
+    const std::string& k = item.key();
+    if (k.rfind(other, 0) == 0) continue;
+    std::string name = k;
+    if (k.rfind(own, 0) == 0) {
+      std::string rest = k.substr(own.size());
+      if (std::regex_match(rest, m, kIndexKey)) name = std::to_string(std::stoi(m[1]) + shift) + "." + m[2].str();
+    }
+    if (out.contains(name)) fail("tiny autoencoder: key " + name + " appears twice");
+    out.insert(name, item.value());
+  }
+  return out;
+}
+
+}  // namespace
+
+TinyAutoencoder::TinyAutoencoder(int latent_channels, bool pool) {
+  std::set<int> enc, dec;
+  if (pool) enc = {11, 12, 13}, dec = {3, 4, 5};
+  build(latent_channels, enc, dec);
+}
+
+TinyAutoencoder::TinyAutoencoder(const StateDict& encoder, const std::string& encoder_name,
+                                 const StateDict& decoder, const std::string& decoder_name) {
+  StateDict enc = encoder_keys(encoder), dec = decoder_keys(decoder);
+  // Latent channels: the last encoder conv's outputs, else the first decoder conv's inputs.
+  int channels = 4;
+  if (const auto* w = enc.find("14.weight"); w && w->dim() == 4) {
+    channels = static_cast<int>(w->size(0));
+  } else if (const auto* d = dec.find("1.weight"); d && d->dim() == 4) {
+    channels = static_cast<int>(d->size(1));
+  }
+  build(channels, pool_blocks(enc), pool_blocks(dec));
+  std::string e = strict_mismatch(*encoder_, enc), d = strict_mismatch(*decoder_, dec);
+  if (!e.empty() || !d.empty()) {
+    fail(encoder_name == decoder_name ? encoder_name : encoder_name + " + " + decoder_name,
+         "weights do not fit the tiny autoencoder architecture: " + (e.empty() ? "" : "encoder: " + e + " ") +
+             (d.empty() ? "" : "decoder: " + d));
+  }
+  load_strict(*encoder_, enc, encoder_name + " (tiny encoder)");
+  load_strict(*decoder_, dec, decoder_name + " (tiny decoder)");
+}
+
+void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>& dp) {
+  latent_channels_ = c;
+  auto block = [](const std::set<int>& pools, int index) { return TinyBlock(64, pools.count(index) > 0); };
+  encoder_ = nn::Sequential();
+  encoder_->push_back(conv3(3, 64));                                         // 0
+  encoder_->push_back(block(ep, 1));                                         // 1
+  for (int level = 0; level < 3; ++level) {                                  // 2..13
+    encoder_->push_back(conv3(64, 64, 2, false));
+    for (int i = 0; i < 3; ++i) encoder_->push_back(block(ep, 3 + 4 * level + i));
+  }
+  encoder_->push_back(conv3(64, c));                                         // 14
+
+  decoder_ = nn::Sequential();
+  decoder_->push_back(nn::Functional([](const at::Tensor& x) { return torch::tanh(x / 3) * 3; }));  // 0
+  decoder_->push_back(conv3(c, 64));                                        // 1
+  decoder_->push_back(nn::ReLU());                                          // 2
+  for (int level = 0; level < 3; ++level) {                                 // 3..17
+    for (int i = 0; i < 3; ++i) decoder_->push_back(block(dp, 3 + 5 * level + i));
+    decoder_->push_back(upsample2());
+    decoder_->push_back(conv3(64, 64, 1, false));
+  }
+  decoder_->push_back(block(dp, 18));                                       // 18
+  decoder_->push_back(conv3(64, 3));                                        // 19
+}
+
+at::Tensor TinyAutoencoder::encode(const at::Tensor& images) {
+  check_images(images);
+  return encoder_->forward(to_layout(images)).contiguous();
+}
+
+at::Tensor TinyAutoencoder::decode(const at::Tensor& latents) {
+  check_latents(latents);
+  return decoder_->forward(to_layout(latents)).clamp(0, 1).contiguous();
+}
+
+StateDict TinyAutoencoder::encoder_keys(const StateDict& file) const {
+  return canonical(file, "encoder.layers.", "decoder.", 0);
+}
+
+StateDict TinyAutoencoder::decoder_keys(const StateDict& file) const {
+  return canonical(file, "decoder.layers.", "encoder.", 1);
+}
+
+}  // namespace lrf

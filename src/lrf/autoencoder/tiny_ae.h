@@ -1,0 +1,45 @@
+#pragma once
+// The tiny autoencoder family (TAESD, TAESDXL, TAESD3, TAEF1, TAEF2; github.com/madebyollin/taesd):
+// 3x3 conv + ReLU residual blocks, three stride-2 convs down and three nearest-upsample + conv up, images
+// in [0,1], raw latents. The decoder first soft-clamps latents with tanh(x/3)*3. TAEF2 (FLUX.2, 32
+// channels) adds to the 1/8-resolution blocks a "pool" branch x += conv1x1(relu(GroupNorm(4)(conv1x1(x))))
+// that mixes global statistics in. Latent channels and which blocks carry the branch are read from the
+// weights. Native key names are those of the reference nn.Sequential: "0.weight", "1.conv.0.weight",
+// "11.pool.1.weight", ...; the diffusers single-file layout ("encoder.layers.N", "decoder.layers.N") is
+// also understood.
+#include <set>
+
+#include <torch/nn/modules/container/sequential.h>
+
+#include "lrf/autoencoder/autoencoder.h"
+
+namespace lrf {
+
+class TinyAutoencoder : public Autoencoder {
+ public:
+  // Builds the architecture the weights describe (encoder and decoder state dicts in any supported
+  // key layout) and loads them strictly; `encoder_name` / `decoder_name` are used in errors.
+  TinyAutoencoder(const StateDict& encoder, const std::string& encoder_name, const StateDict& decoder,
+                  const std::string& decoder_name);
+  // Randomly initialised network with the given latent channels; `pool` adds TAEF2's branch.
+  TinyAutoencoder(int latent_channels, bool pool);
+
+  std::string kind() const override { return "tiny"; }
+  int latent_channels() const override { return latent_channels_; }
+  at::Tensor encode(const at::Tensor& images) override;
+  at::Tensor decode(const at::Tensor& latents) override;
+
+ protected:
+  torch::nn::Module& encoder_module() override { return *encoder_; }
+  torch::nn::Module& decoder_module() override { return *decoder_; }
+  StateDict encoder_keys(const StateDict& file) const override;
+  StateDict decoder_keys(const StateDict& file) const override;
+
+ private:
+  void build(int latent_channels, const std::set<int>& encoder_pool, const std::set<int>& decoder_pool);
+  int latent_channels_ = 4;
+  torch::nn::Sequential encoder_{nullptr};
+  torch::nn::Sequential decoder_{nullptr};
+};
+
+}  // namespace lrf

@@ -1,0 +1,88 @@
+#include "lrf/core/torch_zip.h"
+
+#include <map>
+
+#include <torch/torch.h>
+
+#include "lrf/core/error.h"
+#include "lrf/core/zip_reader.h"
+
+namespace lrf {
+
+pickle::Ref read_torch_zip(const std::string& path) {
+  ZipReader zip(path);
+  // The archive's single root folder is named after the file at save time: find it via data.pkl.
+  const ZipReader::Entry* pkl = nullptr;
+  for (const auto& e : zip.entries()) {
+    auto slash = e.name.find('/');
+    if (slash != std::string::npos && e.name.substr(slash) == "/data.pkl") {
+      if (pkl) fail(path, "zip archive holds more than one data.pkl");
+      pkl = &e;
+    }
+  }
+  if (!pkl) fail(path, "zip archive without <root>/data.pkl: not a PyTorch checkpoint");
+  const std::string root = pkl->name.substr(0, pkl->name.find('/'));
+  if (const auto* order = zip.find(root + "/byteorder")) {
+    if (zip.read(*order) != "little") fail(path, "big-endian checkpoints are not supported");
+  }
+  std::string bytes = zip.read(*pkl);
+
+  // Storages are shared between views (e.g. tied weights): load each key once.
+  std::map<std::string, at::Tensor> storages;
+  auto persistent_load = [&](const pickle::Value& pid) -> pickle::Ref {
+    using K = pickle::Value::Kind;
+    if (pid.kind != K::tuple || pid.items.size() != 5 || pid.items[0]->kind != K::string ||
+        pid.items[0]->text != "storage" || pid.items[1]->kind != K::global || pid.items[2]->kind != K::string ||
+        pid.items[4]->kind != K::integer || pid.items[4]->integer < 0) {
+      fail(path, "unsupported persistent id in data.pkl (expected ('storage', type, key, location, numel))");
+    }
+    at::ScalarType type;
+    std::size_t element_size = 0;
+    if (!pickle::storage_dtype(pid.items[1]->text, &type, &element_size)) {
+      fail(path, "unsupported storage type " + pid.items[1]->text);
+    }
+    const std::string& key = pid.items[2]->text;
+    auto value = std::make_shared<pickle::Value>();
+    value->kind = K::tensor;
+    auto it = storages.find(key);
+    if (it != storages.end()) {
+      if (it->second.scalar_type() != type) fail(path, "storage " + key + " used with two dtypes");
+      value->tensor = it->second;
+      return value;
+    }
+    const auto* entry = zip.find(root + "/data/" + key);
+    if (!entry) fail(path, "storage '" + key + "' is missing from the archive");
+    const auto numel = static_cast<std::uint64_t>(pid.items[4]->integer);
+    // The entry's real size bounds the allocation, whatever numel the pickle claims.
+    if (numel > entry->size / element_size || numel * element_size != entry->size) {
+      fail(path, "storage '" + key + "' claims " + std::to_string(numel) + " elements but holds " +
+                     std::to_string(entry->size) + " bytes");
+    }
+    at::Tensor t = torch::empty({static_cast<std::int64_t>(numel)}, torch::TensorOptions().dtype(type));
+    zip.read(*entry, t.data_ptr());
+    storages.emplace(key, t);
+    value->tensor = t;
+    return value;
+  };
+  return pickle::unpickle(bytes, path + ":" + pkl->name, persistent_load);
+}
+
+StateDict read_torch_state_dict(const std::string& path) {
+  using K = pickle::Value::Kind;
+  pickle::Ref root = read_torch_zip(path);
+  if (root->kind != K::dict) fail(path, "checkpoint does not hold a dict of tensors");
+  const pickle::Value* dict = root.get();
+  for (const auto& [k, v] : root->entries) {
+    if (k->kind == K::string && k->text == "state_dict" && v->kind == K::dict) dict = v.get();
+  }
+  StateDict out;
+  for (const auto& [k, v] : dict->entries) {
+    if (k->kind != K::string || v->kind != K::tensor) continue;
+    if (out.contains(k->text)) fail(path, "duplicate tensor name " + k->text);
+    out.insert(k->text, v->tensor);
+  }
+  if (out.is_empty()) fail(path, "checkpoint holds no tensors");
+  return out;
+}
+
+}  // namespace lrf

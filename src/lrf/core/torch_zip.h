@@ -1,0 +1,18 @@
+#pragma once
+// PyTorch's zip checkpoint format (torch.save since 1.6; .pth / .pt / .ckpt): an archive
+// `<root>/data.pkl` (the pickled object), `<root>/data/<key>` (raw little-endian storages),
+// `<root>/byteorder`. Read with the restricted unpickler of pickle.h: nothing in the file is executed.
+#include <string>
+
+#include "lrf/core/pickle.h"
+#include "lrf/core/state_dict.h"
+
+namespace lrf {
+
+// The unpickled root object, tensors resolved against the archive's storages.
+pickle::Ref read_torch_zip(const std::string& path);
+// The state dict in a checkpoint: the root dict, or root["state_dict"] when present; entries whose
+// values are not tensors are skipped. Throws lrf::Error if there is no tensor at all.
+StateDict read_torch_state_dict(const std::string& path);
+
+}  // namespace lrf
