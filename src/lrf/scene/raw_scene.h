@@ -1,0 +1,39 @@
+#pragma once
+// What each format reader produces before the common steps (resolution choice, undistortion, crop,
+// split): views with cameras at their nominal resolution (the one the poses file describes) and
+// observations in that resolution's distorted pixel coordinates.
+#include <string>
+#include <vector>
+
+#include "lrf/scene/scene.h"
+
+namespace lrf {
+
+struct RawView {
+  std::string name;         // sort key and display name
+  std::string image_rel;    // image path relative to the scene root, inside `images_dir`
+  Camera camera;            // at the nominal resolution, pinhole part of the model
+  Distortion distortion;
+  std::vector<Observation> observations;  // nominal-resolution, distorted pixels
+};
+
+struct RawScene {
+  std::string format;
+  std::string images_dir = "images";  // folder (relative to root) that image_rel starts with
+  std::vector<RawView> views;
+  std::vector<SfmPoint> points;
+  bool has_tracks = false;
+  std::vector<std::string> predefined_test;  // names of test views when the format defines a split
+  bool images_listed_by_order = false;       // LLFF: files in the chosen folder are matched by sorted order
+};
+
+RawScene read_colmap_scene(const std::string& root);
+RawScene read_llff_scene(const std::string& root, const std::string& images_dir);
+RawScene read_nerf_scene(const std::string& root);
+
+// Builds the world-to-camera part of a Camera from an OpenCV camera-to-world matrix.
+void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center);
+// Sorted file names of the images (by extension) in a folder; empty if the folder does not exist.
+std::vector<std::string> list_images(const std::string& dir);
+
+}  // namespace lrf

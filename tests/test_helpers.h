@@ -1,0 +1,79 @@
+#pragma once
+// Shared helpers for the tests: where the shared data is, temporary folders, running the CLI.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "lrf/scene/synthetic_scene.h"
+
+namespace lrf::test {
+
+inline std::string shared_dir() {
+  const char* env = std::getenv("LRF_SHARED");
+  return env ? env : LRF_SHARED_DIR;
+}
+
+inline std::string scene_dir(const std::string& name) { return shared_dir() + "/scenes/" + name; }
+
+// A fresh, empty folder under the system temp dir, removed by the destructor.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& name) {
+    path_ = std::filesystem::temp_directory_path() / ("lrf_test_" + name + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(path_);
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() { std::filesystem::remove_all(path_); }
+  std::string str() const { return path_.string(); }
+  std::string operator/(const std::string& p) const { return (path_ / p).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+struct CommandResult {
+  int exit_code;
+  std::string output;  // stdout and stderr together
+};
+
+// Runs the built `lrf` binary with the given arguments (shell-quoted by the caller).
+inline CommandResult run_lrf(const std::string& args) {
+  std::string cmd = std::string(LRF_BINARY) + " " + args + " 2>&1";
+  CommandResult r{0, ""};
+  FILE* p = ::popen(cmd.c_str(), "r");
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.output.append(buf, n);
+  int status = ::pclose(p);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+// A small synthetic scene, written once and shared by the test processes (ctest runs each test in its
+// own process, in parallel): written to a private folder and renamed into place, so readers never see
+// a partial scene.
+inline std::string synthetic_scene(const SyntheticOptions& o = {8, "64x48", 3, 800}) {
+  namespace fs = std::filesystem;
+  // Under the build folder, so that a rebuilt project does not reuse another build's scenes.
+  std::string dir = (fs::path(LRF_BINARY).parent_path() / "test_data" / ("synth_" + std::to_string(o.views) + "_" + o.size + "_" +
+                                                   std::to_string(o.seed) + "_" + std::to_string(o.points)))
+                        .string();
+  if (!fs::exists(dir)) {
+    fs::create_directories(fs::path(dir).parent_path());
+    std::string tmp = dir + ".tmp" + std::to_string(::getpid());
+    fs::remove_all(tmp);
+    write_synthetic_scene(tmp, o);
+    std::error_code ec;
+    fs::rename(tmp, dir, ec);
+    if (ec) fs::remove_all(tmp);
+  }
+  return dir;
+}
+
+}  // namespace lrf::test
