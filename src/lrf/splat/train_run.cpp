@@ -17,7 +17,8 @@ namespace fs = std::filesystem;
 namespace lrf::splat {
 namespace {
 
-constexpr const char* kLogHeader = "step,loss,psnr,gaussians,elapsed_s\n";
+constexpr const char* kLogHeader =
+    "step,loss,psnr,gaussians,elapsed_s,render_ms,loss_ms,backward_ms,adam_ms,densify_ms\n";
 
 // The rows of an earlier log up to `step` (a resumed run continues it).
 std::string log_rows_until(const std::string& path, int64_t step) {
@@ -60,7 +61,12 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
     log_rows = log_rows_until(log_path, trainer.steps_done());
     if (!log_rows.empty()) {
       auto last = log_rows.substr(log_rows.rfind('\n', log_rows.size() - 2) + 1);
-      elapsed_before = std::stod(last.substr(last.rfind(',') + 1));
+      // Column 5 is the elapsed time.
+      std::istringstream fields(last);
+      std::string field;
+      for (int i = 0; i < 5 && std::getline(fields, field, ','); ++i) {
+      }
+      elapsed_before = std::stod(field);
     }
     log_info("resuming " + o.out + " at step " + std::to_string(trainer.steps_done()));
   }
@@ -74,12 +80,18 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   RunSummary summary;
   double loss_sum = 0;
   int64_t loss_count = 0;
+  StepTimings time_sum;
   double last_psnr = std::nan("");
   try {
     while (!trainer.done()) {
       auto r = trainer.step();
       loss_sum += r.loss;
       ++loss_count;
+      time_sum.render += r.timings.render;
+      time_sum.loss += r.timings.loss;
+      time_sum.backward += r.timings.backward;
+      time_sum.optimizer += r.timings.optimizer;
+      time_sum.densify += r.timings.densify;
       if (!std::isnan(r.psnr)) last_psnr = r.psnr;
       summary.last_loss = r.loss;
       if (r.densified)
@@ -90,10 +102,14 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
         std::ostringstream row;
         row << r.step << "," << std::setprecision(6) << loss_sum / double(loss_count) << ","
             << std::setprecision(4) << last_psnr << "," << r.gaussians << "," << std::setprecision(6)
-            << elapsed_before + progress.elapsed_seconds() << "\n";
+            << elapsed_before + progress.elapsed_seconds() << std::setprecision(4);
+        for (double t : {time_sum.render, time_sum.loss, time_sum.backward, time_sum.optimizer, time_sum.densify})
+          row << "," << t / double(loss_count);
+        row << "\n";
         log_rows += row.str();
         loss_sum = 0;
         loss_count = 0;
+        time_sum = StepTimings();
       }
       progress.update(r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}});
       if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
