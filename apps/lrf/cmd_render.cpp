@@ -1,0 +1,64 @@
+// lrf render: images of a trained field for the scene's cameras, at any resolution.
+#include <filesystem>
+#include <memory>
+
+#include "command.h"
+#include "lrf/core/error.h"
+#include "lrf/core/image_io.h"
+#include "lrf/core/log.h"
+#include "lrf/core/progress.h"
+#include "lrf/splat/field_run.h"
+#include "lrf/splat/rgb_field.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct RenderOptions {
+  std::string out;
+  std::string split = "test";
+  std::string dir;
+  double scale = 1.0;
+  int width = 0, height = 0;
+};
+
+int run_render(const RenderOptions& o) {
+  using namespace lrf;
+  using namespace lrf::splat;
+  if ((o.width > 0) != (o.height > 0)) fail("--width and --height go together");
+  auto run = open_field_run(o.out);
+  std::vector<int> indices;
+  if (o.split == "test") indices = run.scene.test_indices;
+  else if (o.split == "train") indices = run.scene.train_indices;
+  else if (o.split == "all") for (size_t i = 0; i < run.scene.views.size(); ++i) indices.push_back(int(i));
+  else fail("--split must be test, train or all");
+  if (indices.empty()) fail(o.out, "the '" + o.split + "' split has no views");
+  const std::string dir = o.dir.empty() ? (fs::path(o.out) / "renders" / o.split).string() : o.dir;
+  fs::create_directories(dir);
+  Progress progress("render", static_cast<long>(indices.size()));
+  long done = 0;
+  for (int i : indices) {
+    const auto& view = run.scene.views[static_cast<size_t>(i)];
+    auto camera = scaled_camera(view.camera, o.scale, o.width, o.height);
+    auto image = render_field(run.field, camera, run.render).image;
+    write_image_rgb((fs::path(dir) / (fs::path(view.name).stem().string() + ".png")).string(), tensor_to_image(image));
+    progress.update(++done);
+  }
+  progress.finish();
+  log_info("wrote " + std::to_string(indices.size()) + " images to " + dir);
+  return 0;
+}
+
+lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
+  auto* cmd = root.add_subcommand("render", "Render a trained field (lrf train output) to PNG images");
+  auto o = std::make_shared<RenderOptions>();
+  cmd->add_option("out", o->out, "Output folder of lrf train")->required();
+  cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
+  cmd->add_option("-o,--dir", o->dir, "Folder for the images (default OUT/renders/SPLIT)");
+  auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training")->capture_default_str();
+  cmd->add_option("--width", o->width, "Render width in pixels (with --height)")->excludes(scale);
+  cmd->add_option("--height", o->height, "Render height in pixels (with --width)")->excludes(scale);
+  lrf::cli::on_run(cmd, [o] { return run_render(*o); });
+});
+
+}  // namespace

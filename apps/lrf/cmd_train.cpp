@@ -1,0 +1,138 @@
+// lrf train: fit a Gaussian field to a scene. `--space rgb` fits colours; Stage II adds `--space latent`.
+#include <filesystem>
+#include <memory>
+
+#include "command.h"
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/progress.h"
+#include "lrf/core/run_info.h"
+#include "lrf/scene/scene.h"
+#include "lrf/splat/field_run.h"
+#include "lrf/splat/rgb_field.h"
+#include "lrf/splat/train_run.h"
+
+namespace {
+
+struct TrainOptions {
+  std::string scene;
+  std::string space = "rgb";
+  std::string out;
+  std::string images;
+  int downscale = 1;
+  int64_t iters = 30000;
+  int sh_degree = 3;
+  bool mip = false;
+  uint64_t seed = 0;
+  int64_t max_gaussians = 0;
+  bool resume = false;
+  bool force = false;
+  int test_every = 8;
+  int64_t checkpoint_every = 1000;
+  bool sparse_adam = false;
+  bool white_background = false;
+};
+
+nlohmann::json to_json(const TrainOptions& o) {
+  return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
+          {"images", o.images},     {"downscale", o.downscale}, {"iters", o.iters},
+          {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
+          {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
+          {"test_every", o.test_every}, {"checkpoint_every", o.checkpoint_every},
+          {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background}};
+}
+
+int run_train(const TrainOptions& o) {
+  using namespace lrf;
+  using namespace lrf::splat;
+  if (o.space != "rgb") fail("--space '" + o.space + "' is not available: this build trains 'rgb' fields");
+  if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
+  if (o.iters < 1) fail("--iters must be at least 1");
+  if (o.downscale < 1) fail("--downscale must be at least 1");
+  prepare_output_dir(o.out, o.force, o.resume);
+
+  SceneOptions so;
+  so.images_dir = o.images;
+  so.downscale = o.downscale;
+  so.test_every = o.test_every;
+  Scene scene = load_scene(o.scene, so);
+  if (scene.train_indices.empty()) fail(o.scene, "no training views");
+  log_info("scene " + o.scene + " (" + scene.format + "): " + std::to_string(scene.train_indices.size()) +
+           " training and " + std::to_string(scene.test_indices.size()) + " test views at " +
+           std::to_string(scene.views.front().camera.width) + "x" +
+           std::to_string(scene.views.front().camera.height) + ", " + std::to_string(scene.points.size()) +
+           " SfM points");
+
+  TrainerOptions to;
+  to.iterations = o.iters;
+  to.sh_degree = o.sh_degree;
+  to.mip = o.mip;
+  to.seed = o.seed;
+  to.sparse_adam = o.sparse_adam;
+  to.schedule = DensifySchedule::for_iterations(o.iters);
+  to.densify.max_gaussians = o.max_gaussians;
+  const float bg = o.white_background ? 1.0f : 0.0f;
+  to.background = torch::full({3}, bg);
+  const double extent = scene.camera_extent();
+
+  // config.json first: a folder being trained already says what it is.
+  auto config = run_record(to_json(o));
+  config.update(scene_config(o.scene, so, scene));
+  config["space"] = o.space;
+  config["sh_degree"] = o.sh_degree;
+  config["mip"] = o.mip;
+  config["background"] = {bg, bg, bg};
+  config["extent"] = extent;
+  config["schedule"] = {{"densify_from", to.schedule.from}, {"densify_until", to.schedule.until},
+                        {"densify_every", to.schedule.interval},
+                        {"opacity_reset_every", to.schedule.opacity_reset_every},
+                        {"sh_degree_every", to.schedule.sh_degree_every}};
+  const std::string config_path = (std::filesystem::path(o.out) / "config.json").string();
+  write_json_file(config_path, config);
+
+  auto init = init_rgb_field(scene, o.sh_degree, o.seed);
+  log_info(std::string("initial field: ") + std::to_string(init.size()) + " Gaussians from " +
+           (scene.points.empty() ? "random points" : "SfM points"));
+  Trainer trainer(rgb_views(scene, scene.train_indices), std::move(init), extent, to);
+  RunOptions ro;
+  ro.out = o.out;
+  ro.resume = o.resume;
+  ro.checkpoint_every = o.checkpoint_every;
+  auto summary = run_training(trainer, ro);
+
+  config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians},
+                      {"seconds", summary.seconds}, {"final_loss", summary.last_loss}};
+  write_json_file(config_path, config);
+  log_info("wrote " + o.out + "/point_cloud.ply: " + std::to_string(summary.gaussians) + " Gaussians after " +
+           std::to_string(summary.steps) + " steps in " + Progress::format_duration(summary.seconds));
+  return 0;
+}
+
+lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
+  auto* cmd = root.add_subcommand("train", "Fit a Gaussian field (3D Gaussian splatting) to a scene");
+  auto o = std::make_shared<TrainOptions>();
+  cmd->add_option("scene", o->scene, "Scene folder (COLMAP, LLFF or NeRF transforms.json)")->required();
+  cmd->add_option("--space", o->space, "Feature space of the field: rgb")->capture_default_str();
+  cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
+  auto* images = cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
+  cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")
+      ->capture_default_str()
+      ->excludes(images);
+  cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
+  cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3)")->capture_default_str();
+  cmd->add_flag("--mip", o->mip, "Mip-Splatting: 3D smoothing filter and 2D Mip filter");
+  cmd->add_option("--seed", o->seed, "Random seed (view order, initialisation, splits)")->capture_default_str();
+  cmd->add_option("--max-gaussians", o->max_gaussians, "Cap on the number of Gaussians (0 = none)")
+      ->capture_default_str();
+  cmd->add_flag("--resume", o->resume, "Continue the run in the output folder from its last checkpoint");
+  cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
+  cmd->add_option("--test-every", o->test_every, "Hold out every N-th view (sorted by name) for testing")
+      ->capture_default_str();
+  cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
+      ->capture_default_str();
+  cmd->add_flag("--sparse-adam", o->sparse_adam, "Update only Gaussians visible in the step's view (faster)");
+  cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
+  lrf::cli::on_run(cmd, [o] { return run_train(*o); });
+});
+
+}  // namespace

@@ -1,0 +1,78 @@
+#include "lrf/splat/field_run.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "lrf/core/error.h"
+#include "lrf/core/run_info.h"
+#include "lrf/splat/ply_io.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf::splat {
+
+nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o, const Scene& scene) {
+  nlohmann::json j;
+  j["scene"] = fs::absolute(scene_root).lexically_normal().string();
+  j["scene_format"] = scene.format;
+  j["images"] = o.images_dir;
+  j["downscale"] = o.downscale;
+  j["crop_to_multiple_of_8"] = o.crop_to_multiple_of_8;
+  j["test_every"] = o.test_every;
+  if (!scene.views.empty())
+    j["resolution"] = {scene.views.front().camera.width, scene.views.front().camera.height};
+  j["train_views"] = scene.train_indices.size();
+  j["test_views"] = scene.test_indices.size();
+  return j;
+}
+
+SceneOptions scene_options_from_config(const nlohmann::json& c, const std::string& path) {
+  SceneOptions o;
+  try {
+    o.images_dir = c.at("images").get<std::string>();
+    o.downscale = c.at("downscale").get<int>();
+    o.crop_to_multiple_of_8 = c.value("crop_to_multiple_of_8", false);
+    o.test_every = c.at("test_every").get<int>();
+    o.format = c.value("scene_format", std::string());
+  } catch (const nlohmann::json::exception& e) {
+    fail(path, std::string("missing or bad scene settings: ") + e.what());
+  }
+  return o;
+}
+
+FieldRun open_field_run(const std::string& out) {
+  FieldRun run;
+  run.out = out;
+  const std::string config_path = (fs::path(out) / "config.json").string();
+  if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
+  run.config = read_json_file(config_path);
+  std::string scene_root;
+  try {
+    scene_root = run.config.at("scene").get<std::string>();
+    const auto space = run.config.value("space", std::string("rgb"));
+    if (space != "rgb") fail(config_path, "space '" + space + "' cannot be rendered as RGB by this command yet");
+    run.render.sh_degree = run.config.at("sh_degree").get<int>();
+    run.render.mip = run.config.at("mip").get<bool>();
+    run.render.background = torch::tensor(run.config.at("background").get<std::vector<float>>());
+  } catch (const nlohmann::json::exception& e) {
+    fail(config_path, std::string("missing or bad field settings: ") + e.what());
+  }
+  run.scene = load_scene(scene_root, scene_options_from_config(run.config, config_path));
+  const std::string ply = (fs::path(out) / "point_cloud.ply").string();
+  if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
+  run.field = read_ply(ply);
+  if (run.render.background.numel() != run.field.channels())
+    fail(config_path, "background has " + std::to_string(run.render.background.numel()) + " channels, the field " +
+                          std::to_string(run.field.channels()));
+  return run;
+}
+
+Camera scaled_camera(const Camera& camera, double scale, int width, int height) {
+  if (width > 0 && height > 0) return camera.resized(width, height);
+  if (scale <= 0) fail("--scale must be positive");
+  if (scale == 1.0) return camera;
+  return camera.resized(std::max(1, int(std::lround(camera.width * scale))),
+                        std::max(1, int(std::lround(camera.height * scale))));
+}
+
+}  // namespace lrf::splat

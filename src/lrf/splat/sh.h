@@ -1,0 +1,22 @@
+#pragma once
+// Real spherical harmonics up to degree 3 for C channels, with the constants and sign conventions of 3DGS,
+// and the backward (w.r.t. the coefficients and, through the view direction, the means).
+#include <cstdint>
+
+namespace lrf::splat {
+
+// Basis values b[0..(degree+1)²) for a unit direction d, in 3DGS order.
+void sh_basis(int degree, const float d[3], float* b);
+
+// colors[i, c] = max(Σ_k b_k(dir_i)·sh[i, k, c] + 0.5, 0), dir_i = normalize(mean_i − campos), for the
+// Gaussians with radii > 0 (zeros elsewhere). sh holds k_stored >= (degree+1)² coefficients per Gaussian.
+void sh_forward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
+                const double campos[3], const int32_t* radii, float* colors);
+
+// d_sh (overwritten, [N, k_stored, C]; zeros for inactive degrees and culled Gaussians) and d_means
+// (accumulated into: the projection writes its part first). The clamp at 0 passes no gradient.
+void sh_backward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
+                 const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
+                 float* d_sh, float* d_means);
+
+}  // namespace lrf::splat

@@ -1,0 +1,173 @@
+// The trainer end to end on a tiny synthetic scene: a short fit must reach a PSNR that a broken
+// gradient misses, a resumed run must equal an uninterrupted one, and divergence must be caught.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include "lrf/splat/loss.h"
+#include "lrf/splat/ply_io.h"
+#include "lrf/splat/render_field.h"
+#include "lrf/splat/train_run.h"
+#include "lrf/splat/trainer.h"
+
+namespace fs = std::filesystem;
+using namespace lrf::splat;
+
+namespace {
+
+lrf::Camera look_at(const Eigen::Vector3d& eye, int w, int h) {
+  lrf::Camera c;
+  c.width = w;
+  c.height = h;
+  c.fx = c.fy = 0.9 * w;
+  c.cx = w / 2.0;
+  c.cy = h / 2.0;
+  Eigen::Vector3d forward = (-eye).normalized();
+  Eigen::Vector3d right = forward.cross(Eigen::Vector3d(0, -1, 0)).normalized();
+  Eigen::Vector3d down = forward.cross(right);
+  c.R.row(0) = right;
+  c.R.row(1) = down;
+  c.R.row(2) = forward;
+  c.t = -c.R * eye;
+  return c;
+}
+
+// A ground-truth field of coloured blobs around the origin, rendered from cameras on an arc.
+struct SynthScene {
+  Gaussians truth;
+  std::vector<TrainView> train, test;
+};
+
+SynthScene make_scene(int channels, int views, int w, int h) {
+  torch::manual_seed(7);
+  SynthScene s;
+  auto xyz = torch::rand({60, 3}) * 1.6 - 0.8;
+  s.truth = gaussians_from_points(xyz, torch::rand({60, channels}), 0);
+  {
+    torch::NoGradGuard ng;
+    s.truth.log_scales.fill_(std::log(0.15));
+    s.truth.opacity_logits.fill_(1.5);
+  }
+  for (int i = 0; i < views; ++i) {
+    const double a = -0.6 + 1.2 * i / (views - 1);
+    auto cam = look_at(Eigen::Vector3d(3 * std::sin(a), 0.3 * std::cos(3 * a), -3 * std::cos(a)), w, h);
+    auto image = render_field(s.truth, cam, {0, false, torch::zeros({channels})}).image;
+    TrainView v{"view" + std::to_string(i), cam, image};
+    (i % 4 == 2 ? s.test : s.train).push_back(v);
+  }
+  return s;
+}
+
+TrainerOptions short_options(int64_t iters) {
+  TrainerOptions o;
+  o.iterations = iters;
+  o.sh_degree = 0;
+  o.seed = 3;
+  o.schedule.from = 50;
+  o.schedule.until = iters / 2;
+  o.schedule.interval = 25;
+  o.schedule.opacity_reset_every = 1000000;
+  o.schedule.sh_degree_every = 1000000;
+  return o;
+}
+
+Gaussians start_field(int channels) {
+  auto xyz = random_points(400, Eigen::Vector3d::Zero(), 1.0, 5);
+  return gaussians_from_points(xyz, torch::full({400, channels}, 0.5f), 0);
+}
+
+double test_psnr(Trainer& t, const SynthScene& s) {
+  double sum = 0;
+  for (const auto& v : s.test) sum += psnr(t.render(v.camera).image, v.target);
+  return sum / double(s.test.size());
+}
+
+}  // namespace
+
+TEST(Trainer, ShortFitReachesPsnrBoundOnHeldOutViews) {
+  for (int channels : {3, 4}) {
+    auto scene = make_scene(channels, 12, 40, 30);
+    Trainer trainer(scene.train, start_field(channels), 3.0, short_options(400));
+    const double before = test_psnr(trainer, scene);
+    while (!trainer.done()) trainer.step();
+    const double after = test_psnr(trainer, scene);
+    // Measured: ~12 dB at the start, 25+ dB after 400 steps; with a wrong gradient sign or scale the
+    // fit does not get near 20 dB.
+    EXPECT_GT(after, 20.0) << "C=" << channels << " start " << before;
+    EXPECT_GT(after, before + 6.0);
+  }
+}
+
+TEST(Trainer, ResumedRunEqualsUninterruptedRun) {
+  auto scene = make_scene(3, 8, 32, 24);
+  auto options = short_options(120);
+  options.schedule.from = 10;
+  options.schedule.interval = 20;
+  options.schedule.until = 100;
+  options.schedule.opacity_reset_every = 50;
+  options.schedule.sh_degree_every = 40;
+  options.sh_degree = 1;
+  auto field = [] {
+    auto xyz = random_points(300, Eigen::Vector3d::Zero(), 1.0, 5);
+    return gaussians_from_points(xyz, torch::full({300, 3}, 0.5f), 1);
+  };
+  options.mip = true;
+  Trainer straight(scene.train, field(), 3.0, options);
+  while (!straight.done()) straight.step();
+
+  auto dir = fs::temp_directory_path() / "lrf_test_resume";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string ckpt = (dir / "ckpt.pt").string();
+  {
+    Trainer first(scene.train, field(), 3.0, options);
+    for (int i = 0; i < 55; ++i) first.step();
+    first.save_checkpoint(ckpt);
+  }
+  Trainer second(scene.train, field(), 3.0, options);
+  second.load_checkpoint(ckpt);
+  EXPECT_EQ(second.steps_done(), 55);
+  while (!second.done()) second.step();
+  auto a = straight.gaussians().parameters();
+  auto b = second.gaussians().parameters();
+  ASSERT_EQ(straight.gaussians().size(), second.gaussians().size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_TRUE(torch::equal(*a[i], *b[i])) << Gaussians::parameter_names()[i];
+  fs::remove_all(dir);
+}
+
+TEST(Trainer, DivergenceIsReportedWithStepAndLastCheckpointKept) {
+  auto scene = make_scene(3, 6, 24, 18);
+  auto dir = (fs::temp_directory_path() / "lrf_test_diverge").string();
+  fs::remove_all(dir);
+  prepare_output_dir(dir, false, false);
+  RunOptions ro;
+  ro.out = dir;
+  ro.checkpoint_every = 5;
+  ro.log_every = 5;
+  {
+    Trainer t(scene.train, start_field(3), 3.0, short_options(10));
+    run_training(t, ro);
+  }
+  auto good = read_ply(dir + "/point_cloud.ply");
+  // Poison the targets (the trainer shares their storage) and continue the run.
+  for (auto& v : scene.train) v.target.fill_(std::nanf(""));
+  Trainer t(scene.train, start_field(3), 3.0, short_options(20));
+  ro.resume = true;
+  try {
+    run_training(t, ro);
+    FAIL() << "expected TrainingDiverged";
+  } catch (const TrainingDiverged& e) {
+    EXPECT_EQ(e.step(), 11);
+    EXPECT_NE(std::string(e.what()).find("step 11"), std::string::npos);
+  }
+  auto kept = read_ply(dir + "/point_cloud.ply");
+  EXPECT_TRUE(torch::equal(kept.means, good.means));
+  EXPECT_THROW(prepare_output_dir(dir, false, false), lrf::Error);  // exists: refused
+  fs::remove_all(dir);
+}
+
+TEST(Trainer, RejectsTargetsThatDoNotMatchTheField) {
+  auto scene = make_scene(3, 4, 16, 12);
+  EXPECT_THROW(Trainer(scene.train, start_field(4), 3.0, short_options(10)), lrf::Error);
+}
