@@ -80,6 +80,9 @@ TEST(EvalTable, FormatsNumbersSensibly) {
   EXPECT_EQ(lrf::format_number(1234.56), "1235");
   EXPECT_EQ(lrf::format_number(150000), "150000");
   EXPECT_EQ(lrf::format_number(0.0123456), "0.01235");
+  EXPECT_EQ(lrf::format_number(0.75), "0.7500");
+  EXPECT_EQ(lrf::format_number(1.2345e-5), "1.234e-05");
+  EXPECT_EQ(lrf::format_number(-3.14159), "-3.142");
   EXPECT_EQ(lrf::format_number(25.43217, 1), "25.4");
   EXPECT_EQ(lrf::format_number(25.43217, -1, 6), "25.4322");
   EXPECT_EQ(lrf::display_text(lrf::Cell()), "\u2013");
@@ -87,6 +90,17 @@ TEST(EvalTable, FormatsNumbersSensibly) {
   EXPECT_EQ(lrf::display_text(lrf::Cell::from_json(nullptr)), "\u2013");
   EXPECT_EQ(lrf::display_text(lrf::Cell::from_json(42)), "42");
   EXPECT_EQ(lrf::display_text(lrf::Cell::from_json("x")), "x");
+}
+
+TEST(EvalTable, ColumnsShareTheirDecimals) {
+  auto rows = lrf::align_decimals({{100.0, 0.5, lrf::Cell(3.0, 1)}, {137.25, 0.0123, 2.5}, {lrf::Cell(), 1e-5, 7}});
+  EXPECT_EQ(lrf::display_text(rows[0][0]), "100.0");   // 137.25 needs one decimal: the column gets one
+  EXPECT_EQ(lrf::display_text(rows[1][0]), "137.2");   // (round-half-even of the binary value)
+  EXPECT_EQ(lrf::display_text(rows[0][1]), "0.5000");  // 1e-5 needs %g: the column stays per cell
+  EXPECT_EQ(lrf::display_text(rows[2][1]), "1e-05");
+  EXPECT_EQ(lrf::display_text(rows[0][2]), "3.0");     // fixed decimals are kept,
+  EXPECT_EQ(lrf::display_text(rows[1][2]), "2.500");   // the automatic cell gets 4 significant digits,
+  EXPECT_EQ(lrf::display_text(rows[2][2]), "7");       // integers are counts: no decimals
 }
 
 TEST(EvalTable, CsvAndMarkdownFiles) {
@@ -108,8 +122,8 @@ TEST(EvalTable, CsvAndMarkdownFiles) {
             "| method          |  psnr |   ssim |  lpips | gaussians |\n"
             "| --------------- | ----: | -----: | -----: | --------: |\n"
             "| rgb/8           | 21.12 | 0.7123 |      \u2013 |     12000 |\n"
-            "| latent, \"stock\" | 22.50 |   0.75 | 0.3127 |     34567 |\n"
-            "| a\\|b            | 19.00 |      \u2013 |   0.25 |         5 |\n");
+            "| latent, \"stock\" | 22.50 | 0.7500 | 0.3127 |     34567 |\n"
+            "| a\\|b            | 19.00 |      \u2013 | 0.2500 |         5 |\n");
 }
 
 TEST(EvalTable, RowWidthMismatchNamesTheFile) {
@@ -208,6 +222,16 @@ TEST(EvalReport, PngRoundTripKeepsPixelsAndColourOrder) {
   ASSERT_EQ(bgr.size(), cv::Size(3, 2));
   EXPECT_EQ(bgr.at<cv::Vec3b>(1, 2), cv::Vec3b(30, 10, 200));
   EXPECT_THROW(lrf::png_data_uri(cv::Mat(2, 2, CV_8UC4)), lrf::Error);
+}
+
+TEST(EvalReport, LargeImagesCanBeShrunkForThePage) {
+  lrf::ReportSpec spec;
+  spec.title = "t";
+  spec.max_image_side = 50;
+  spec.views = {{"v", {"ground truth", gradient_image(200, 100, 0.5f), {}}, {{"m", gradient_image(40, 30, 0.f), {}}}}};
+  std::string html = lrf::html_report(spec);
+  EXPECT_NE(html.find("width=\"50\" height=\"25\""), std::string::npos);  // 200×100 → 50×25
+  EXPECT_NE(html.find("width=\"40\" height=\"30\""), std::string::npos);  // small enough: as given
 }
 
 TEST(EvalReport, BadSummaryNamesTheFileAndWritesNothing) {

@@ -1,5 +1,7 @@
 #include "lrf/eval/report.h"
 
+#include <algorithm>
+#include <cmath>
 #include <ctime>
 
 #include <opencv2/imgcodecs.hpp>
@@ -73,8 +75,8 @@ bool is_best(const std::vector<Row>& rows, size_t col, Better better, size_t row
 
 void summary_table(std::string& html, const ReportSpec& spec) {
   const auto& header = spec.summary_header;
-  const auto& rows = spec.summary_rows;
-  table_csv(header, rows, "HTML report summary");  // validates the widths with a clear error
+  table_csv(header, spec.summary_rows, "HTML report summary");  // validates the widths with a clear error
+  const std::vector<Row> rows = align_decimals(spec.summary_rows);
   std::vector<bool> numeric(header.size(), true);
   for (const auto& r : rows) {
     for (size_t j = 0; j < r.size(); ++j) numeric[j] = numeric[j] && r[j].kind != Cell::Kind::text;
@@ -98,14 +100,22 @@ void summary_table(std::string& html, const ReportSpec& spec) {
   html += "</tbody></table></div>\n";
 }
 
-void figure(std::string& html, const ReportImage& img, const std::string& view, bool truth) {
+cv::Mat shrink_to(const cv::Mat& image, int max_side) {
+  int side = std::max(image.cols, image.rows);
+  if (max_side <= 0 || side <= max_side) return image;
+  double f = static_cast<double>(max_side) / side;
+  return resize_area(image, std::max(1, static_cast<int>(std::lround(image.cols * f))),
+                     std::max(1, static_cast<int>(std::lround(image.rows * f))));
+}
+
+void figure(std::string& html, const ReportImage& img, const std::string& view, bool truth, int max_side) {
   html += truth ? "<figure class=\"truth\">" : "<figure>";
   if (img.image.empty()) {
     html += "<div class=\"no-image\">no image</div>";
   } else {
-    html += "<img src=\"" + png_data_uri(img.image) + "\" width=\"" + std::to_string(img.image.cols) +
-            "\" height=\"" + std::to_string(img.image.rows) + "\" alt=\"" + html_escape(img.caption + ", " + view) +
-            "\">";
+    cv::Mat shown = shrink_to(img.image, max_side);
+    html += "<img src=\"" + png_data_uri(shown) + "\" width=\"" + std::to_string(shown.cols) + "\" height=\"" +
+            std::to_string(shown.rows) + "\" alt=\"" + html_escape(img.caption + ", " + view) + "\">";
   }
   html += "<figcaption><div class=\"caption\">" + html_escape(img.caption) + "</div>";
   if (!img.numbers.empty()) {
@@ -190,8 +200,8 @@ std::string html_report(const ReportSpec& spec) {
     html += "<h2>Test views</h2>\n";
     for (const auto& view : spec.views) {
       html += "<h3>" + html_escape(view.name) + "</h3>\n<div class=\"row\">\n";
-      figure(html, view.ground_truth, view.name, true);
-      for (const auto& m : view.methods) figure(html, m, view.name, false);
+      figure(html, view.ground_truth, view.name, true, spec.max_image_side);
+      for (const auto& m : view.methods) figure(html, m, view.name, false, spec.max_image_side);
       html += "</div>\n";
     }
     html += "</section>\n";

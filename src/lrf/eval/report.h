@@ -38,6 +38,9 @@ struct ReportSpec {
   // Show pixels as squares when the browser enlarges small images (latent-resolution renders), so that
   // what is compared is the pixels, not the browser's interpolation.
   bool pixelated = false;
+  // Images larger than this (width or height, in pixels) are shrunk for the page with an area filter,
+  // to keep the file small; 0 = embed as given. Metrics are computed before, on the full images.
+  int max_image_side = 0;
   std::string footer;  // empty: "lrf <version>" and the time of writing
 };
 

@@ -91,17 +91,43 @@ Cell Cell::from_json(const nlohmann::json& value, int display_decimals) {
   return Cell(value.dump());
 }
 
+int auto_decimals(double v, int significant) {
+  if (!std::isfinite(v)) return -1;
+  double a = std::fabs(v);
+  if (a < 1e15 && v == std::round(v)) return 0;
+  if (a >= 1.0) return std::max(0, significant - (static_cast<int>(std::floor(std::log10(a))) + 1));
+  if (a >= 1e-3) return significant - 1 - static_cast<int>(std::floor(std::log10(a)));
+  return -1;
+}
+
 std::string format_number(double v, int decimals, int significant) {
   if (std::isnan(v)) return "nan";
   if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
-  if (decimals >= 0) return printf_double("%.*f", decimals, v);
-  double a = std::fabs(v);
-  if (a < 1e15 && v == std::round(v)) return printf_double("%.*f", 0, v);
-  if (a >= 1.0) {
-    int integer_digits = static_cast<int>(std::floor(std::log10(a))) + 1;
-    return printf_double("%.*f", std::max(0, significant - integer_digits), v);
+  if (decimals < 0) decimals = auto_decimals(v, significant);
+  if (decimals < 0) return printf_double("%.*g", significant, v);  // 1.2e-05
+  return printf_double("%.*f", decimals, v);
+}
+
+std::vector<Row> align_decimals(const std::vector<Row>& rows) {
+  size_t columns = 0;
+  for (const auto& r : rows) columns = std::max(columns, r.size());
+  std::vector<int> decimals(columns, 0);
+  std::vector<bool> alignable(columns, true);  // false if a cell needs %g
+  for (const auto& r : rows) {
+    for (size_t j = 0; j < r.size(); ++j) {
+      if (r[j].kind != Cell::Kind::number || r[j].decimals >= 0) continue;
+      int d = auto_decimals(r[j].number);
+      if (d < 0) alignable[j] = false;
+      decimals[j] = std::max(decimals[j], d);
+    }
   }
-  return printf_double("%.*g", significant, v);  // 0.8123, 0.01234, 1.2e-05
+  std::vector<Row> out = rows;
+  for (auto& r : out) {
+    for (size_t j = 0; j < r.size(); ++j) {
+      if (r[j].kind == Cell::Kind::number && r[j].decimals < 0 && alignable[j]) r[j].decimals = decimals[j];
+    }
+  }
+  return out;
 }
 
 std::string display_text(const Cell& cell, const std::string& missing) {
@@ -129,9 +155,10 @@ void write_table_csv(const std::string& path, const std::vector<std::string>& he
   write_file_atomic(path, table_csv(header, rows, path));
 }
 
-std::string table_markdown(const std::vector<std::string>& header, const std::vector<Row>& rows,
+std::string table_markdown(const std::vector<std::string>& header, const std::vector<Row>& given_rows,
                            const std::string& path) {
-  check_widths(header, rows, path);
+  check_widths(header, given_rows, path);
+  const std::vector<Row> rows = align_decimals(given_rows);
   const size_t n = header.size();
   std::vector<std::vector<std::string>> text(rows.size(), std::vector<std::string>(n));
   std::vector<size_t> width(n, 3);  // "---" at least

@@ -36,8 +36,15 @@ struct Cell {
 
 using Row = std::vector<Cell>;
 
-// A number for display: `decimals` >= 0 fixes them; -1 is automatic with `significant` digits.
+// A number for display: `decimals` >= 0 fixes them; -1 is automatic: auto_decimals(value, significant),
+// or %g where that is -1.
 std::string format_number(double value, int decimals = -1, int significant = 4);
+// Decimals that show `value` with `significant` digits (0 for integers): 25.43, 0.8123, 0.01235, 1235.
+// -1 where fixed decimals do not suit (magnitude below 1e-3, or not finite).
+int auto_decimals(double value, int significant = 4);
+// `rows` with each automatic number cell given its column's largest auto_decimals, so that a column's
+// numbers line up ("100.0" above "137.2"); cells with fixed decimals keep theirs.
+std::vector<Row> align_decimals(const std::vector<Row>& rows);
 // The cell as shown in markdown/HTML; `missing` for an empty cell.
 std::string display_text(const Cell& cell, const std::string& missing = "\u2013");
 
@@ -47,8 +54,8 @@ std::string table_csv(const std::vector<std::string>& header, const std::vector<
                       const std::string& path = "");
 void write_table_csv(const std::string& path, const std::vector<std::string>& header, const std::vector<Row>& rows);
 
-// A GitHub-flavoured markdown table with padded columns; numeric columns are right-aligned, missing
-// cells show "–", and `|` in text is escaped.
+// A GitHub-flavoured markdown table with padded columns; numeric columns are right-aligned with aligned
+// decimals (align_decimals), missing cells show "–", and `|` in text is escaped.
 std::string table_markdown(const std::vector<std::string>& header, const std::vector<Row>& rows,
                            const std::string& path = "");
 void write_table_markdown(const std::string& path, const std::vector<std::string>& header,
