@@ -39,8 +39,8 @@ bool run_reference(const std::string& dir) {
 }
 
 // A complete lpips-layout state dict with random values (shapes are all the loader checks).
-lrf::StateDict random_state_dict() {
-  lrf::StateDict sd;
+lrf::TensorMap random_state_dict() {
+  lrf::TensorMap sd;
   for (const auto& [key, shape] : lrf::Lpips::expected_keys()) sd[key] = torch::rand(shape) * 0.1;
   sd["scaling_layer.shift"] = torch::tensor({-0.030f, -0.088f, -0.188f}).view({1, 3, 1, 1});
   sd["scaling_layer.scale"] = torch::tensor({0.458f, 0.448f, 0.450f}).view({1, 3, 1, 1});
@@ -87,7 +87,7 @@ TEST(EvalLpips, MatchesPyTorchReference) {
   EXPECT_EQ(lpips.distance(img0, img0), 0.0);
 
   // The torchvision layout for the backbone plus a lin-only dict gives the same network.
-  lrf::StateDict lin, backbone;
+  lrf::TensorMap lin, backbone;
   for (const auto& [key, t] : weights) {
     if (key.rfind("net.slice", 0) == 0) {
       std::string rest = key.substr(std::string("net.sliceN.").size());  // "<index>.<param>"
@@ -136,9 +136,13 @@ TEST(EvalLpips, StrictLoadingListsEveryProblemInOneError) {
 
 TEST(EvalLpips, SplitDictsAreCheckedPerRole) {
   auto sd = random_state_dict();
-  lrf::StateDict lin, backbone;
+  lrf::TensorMap lin, backbone;
   for (const auto& [key, t] : sd) (key.rfind("net.", 0) == 0 ? backbone : lin)[key] = t;
   EXPECT_NO_THROW(lrf::Lpips::from_state_dicts(lin, backbone));
+  // torch::OrderedDict (what core's weight-file loader returns) converts with tensor_map().
+  torch::OrderedDict<std::string, torch::Tensor> ordered;
+  for (const auto& [key, t] : sd) ordered.insert(key, t);
+  EXPECT_NO_THROW(lrf::Lpips::from_state_dict(lrf::tensor_map(ordered)));
   // Backbone keys in the lin file, or the same layer in both layouts, are reported with their files.
   auto lin_plus = lin;
   lin_plus["features.0.weight"] = sd.at("net.slice1.0.weight");

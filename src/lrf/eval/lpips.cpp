@@ -63,7 +63,7 @@ class LpipsLoader {
     for (const auto& [key, shape] : Lpips::expected_keys()) expected_[key] = shape;
   }
 
-  void add(const StateDict& dict, const std::string& source, bool backbone, bool lin) {
+  void add(const TensorMap& dict, const std::string& source, bool backbone, bool lin) {
     sources_.push_back(source);
     static const std::regex torchvision_key(R"(features\.(\d+)\.(weight|bias))");
     static const std::regex lpips_key(R"(net\.slice(\d)\.(\d+)\.(weight|bias))");
@@ -165,13 +165,13 @@ std::vector<std::pair<std::string, std::vector<int64_t>>> Lpips::expected_keys()
   return keys;
 }
 
-Lpips Lpips::from_state_dict(const StateDict& combined, const std::string& source) {
+Lpips Lpips::from_state_dict(const TensorMap& combined, const std::string& source) {
   LpipsLoader loader;
   loader.add(combined, source, true, true);
   return loader.finish();
 }
 
-Lpips Lpips::from_state_dicts(const StateDict& lin, const StateDict& backbone, const std::string& lin_source,
+Lpips Lpips::from_state_dicts(const TensorMap& lin, const TensorMap& backbone, const std::string& lin_source,
                               const std::string& backbone_source) {
   LpipsLoader loader;
   loader.add(lin, lin_source, false, true);

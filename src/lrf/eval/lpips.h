@@ -22,16 +22,27 @@
 
 namespace lrf {
 
-using StateDict = std::map<std::string, torch::Tensor>;
+// Weights by parameter name. (Not named StateDict: core's loader has its own ordered StateDict type;
+// tensor_map() converts it.)
+using TensorMap = std::map<std::string, torch::Tensor>;
+
+// A TensorMap of any state dict whose items have key() and value(), such as torch::OrderedDict (what
+// lrf::load_state_dict returns).
+template <typename OrderedDictLike>
+TensorMap tensor_map(const OrderedDictLike& dict) {
+  TensorMap out;
+  for (const auto& item : dict) out[item.key()] = item.value();
+  return out;
+}
 
 class Lpips {
  public:
   // One state dict with backbone and lin weights (the lpips layout, or torchvision backbone keys).
   // `source` names the weights in errors (usually the file path).
-  static Lpips from_state_dict(const StateDict& combined, const std::string& source = "LPIPS weights");
+  static Lpips from_state_dict(const TensorMap& combined, const std::string& source = "LPIPS weights");
   // The lin weights (e.g. the lpips package's weights/v0.1/vgg.pth) and the backbone (e.g. torchvision's
   // vgg16 file) from separate state dicts.
-  static Lpips from_state_dicts(const StateDict& lin, const StateDict& backbone,
+  static Lpips from_state_dicts(const TensorMap& lin, const TensorMap& backbone,
                                 const std::string& lin_source = "LPIPS lin weights",
                                 const std::string& backbone_source = "VGG16 weights");
 

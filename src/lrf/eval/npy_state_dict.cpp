@@ -11,11 +11,11 @@ torch::Tensor npy_to_tensor(const NpyArray& array) {
   return torch::from_blob(data, array.shape, torch::kFloat64).to(torch::kFloat32);  // to() copies
 }
 
-StateDict read_npy_state_dict(const std::string& dir) {
+TensorMap read_npy_state_dict(const std::string& dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) fail(dir, "state dict folder not found");
-  StateDict dict;
+  TensorMap dict;
   for (const auto& entry : fs::directory_iterator(dir, ec)) {
     const fs::path& p = entry.path();
     if (p.extension() != ".npy" || !entry.is_regular_file()) continue;

@@ -13,6 +13,6 @@ namespace lrf {
 torch::Tensor npy_to_tensor(const NpyArray& array);
 // Every *.npy file in `dir`, keyed by its name without the extension; throws lrf::Error naming the
 // folder if it is missing or holds no .npy file, or naming the file if one is unreadable.
-StateDict read_npy_state_dict(const std::string& dir);
+TensorMap read_npy_state_dict(const std::string& dir);
 
 }  // namespace lrf
