@@ -4,12 +4,12 @@
 #include <cmath>
 #include <sstream>
 
+#include <opencv2/imgproc.hpp>
+
 #include "lrf/core/error.h"
 
 namespace lrf {
 namespace {
-
-namespace F = torch::nn::functional;
 
 constexpr int kWindow = 11;
 constexpr double kSigma = 1.5;
@@ -44,19 +44,28 @@ torch::Tensor clamped64(const torch::Tensor& t, double max) {
 // 3DGS's window: exp(-(x - 5)² / (2σ²)) for x = 0..10, normalised to sum 1. The 11×11 window is the
 // outer product of this with itself, so the blur runs as two 1-D passes; with zero padding that is
 // exactly the 2-D convolution (padded rows and columns contribute zero either way).
-torch::Tensor gaussian_1d() {
-  auto x = torch::arange(kWindow, torch::kFloat64) - (kWindow / 2);
-  auto g = torch::exp(-(x * x) / (2.0 * kSigma * kSigma));
-  return g / g.sum();
+cv::Mat gaussian_1d() {
+  cv::Mat g(kWindow, 1, CV_64F);
+  for (int i = 0; i < kWindow; ++i) {
+    double x = i - kWindow / 2;
+    g.at<double>(i) = std::exp(-(x * x) / (2.0 * kSigma * kSigma));
+  }
+  return g / cv::sum(g)[0];
 }
 
-// Same-size Gaussian blur of each channel of a [1, C, H, W] float64 tensor.
-torch::Tensor blur(const torch::Tensor& x, const torch::Tensor& g) {
-  int64_t c = x.size(1);
-  auto vertical = g.view({1, 1, kWindow, 1}).expand({c, 1, kWindow, 1}).contiguous();
-  auto horizontal = g.view({1, 1, 1, kWindow}).expand({c, 1, 1, kWindow}).contiguous();
-  auto y = F::conv2d(x, vertical, F::Conv2dFuncOptions().padding({kWindow / 2, 0}).groups(c));
-  return F::conv2d(y, horizontal, F::Conv2dFuncOptions().padding({0, kWindow / 2}).groups(c));
+// Same-size Gaussian blur with zero padding of each channel of a contiguous [C, H, W] float64 tensor.
+// OpenCV's separable filter runs in float64 too; a whole 1008×756 SSIM takes 0.7 s with it against 5.7 s
+// with libtorch's float64 grouped convolution, which has no optimised kernel.
+torch::Tensor blur(const torch::Tensor& x) {
+  static const cv::Mat g = gaussian_1d();
+  const int c = static_cast<int>(x.size(0)), h = static_cast<int>(x.size(1)), w = static_cast<int>(x.size(2));
+  auto out = torch::empty_like(x);
+  for (int k = 0; k < c; ++k) {
+    cv::Mat src(h, w, CV_64F, x[k].data_ptr<double>());
+    cv::Mat dst(h, w, CV_64F, out[k].data_ptr<double>());
+    cv::sepFilter2D(src, dst, CV_64F, g, g, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
+  }
+  return out;
 }
 
 }  // namespace
@@ -84,19 +93,18 @@ double ssim(const torch::Tensor& a, const torch::Tensor& b, double max) {
   check_pair("ssim", a, b, 3);
   if (!(max > 0.0)) fail("ssim: max value must be positive, got " + std::to_string(max));
   torch::NoGradGuard no_grad;
-  auto x = clamped64(a, max).unsqueeze(0);
-  auto y = clamped64(b, max).unsqueeze(0);
-  auto g = gaussian_1d();
+  auto x = clamped64(a, max).contiguous();
+  auto y = clamped64(b, max).contiguous();
   const double c1 = (0.01 * max) * (0.01 * max);
   const double c2 = (0.03 * max) * (0.03 * max);
-  auto mu_x = blur(x, g);
-  auto mu_y = blur(y, g);
+  auto mu_x = blur(x);
+  auto mu_y = blur(y);
   auto mu_xx = mu_x * mu_x;
   auto mu_yy = mu_y * mu_y;
   auto mu_xy = mu_x * mu_y;
-  auto var_x = blur(x * x, g) - mu_xx;
-  auto var_y = blur(y * y, g) - mu_yy;
-  auto cov_xy = blur(x * y, g) - mu_xy;
+  auto var_x = blur(x * x) - mu_xx;
+  auto var_y = blur(y * y) - mu_yy;
+  auto cov_xy = blur(x * y) - mu_xy;
   auto map = ((2.0 * mu_xy + c1) * (2.0 * cov_xy + c2)) / ((mu_xx + mu_yy + c1) * (var_x + var_y + c2));
   return map.mean().item<double>();
 }
