@@ -8,6 +8,7 @@
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/eval/metrics.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/resolve.h"
 #include "lrf/autoencoder/tiny_ae.h"
@@ -60,7 +61,7 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   cv::Mat image = lrf::center_crop_to_multiple(lrf::read_image_rgb(first_fern_image()), 8);
   ASSERT_EQ(image.cols, 504);
   ASSERT_EQ(image.rows, 376);
-  at::Tensor x = lrf::image_to_tensor(image);
+  at::Tensor x = lrf::image_to_batch(image);
 
   auto dir = lrf_test::fresh_dir("taef2_ref");
   lrf::StateDict input;
@@ -79,7 +80,7 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   EXPECT_LE(dz, kTolerance);
   EXPECT_LE(dy, kTolerance);
   // The reconstruction itself is sane (the full 20-view figure is measured by `lrf ae roundtrip`).
-  EXPECT_GT(lrf::psnr(y, x), 20.0);
+  EXPECT_GT(lrf::psnr(y.squeeze(0), x.squeeze(0)), 20.0);
   fs::remove_all(dir);
 }
 
@@ -272,7 +273,7 @@ TEST(TinyAutoencoder, AdamOnEncoderReducesLossAndLeavesFrozenDecoderUntouched) {
   torch::manual_seed(0);
   auto ae = lrf::load_autoencoder(taef2_dir());
   cv::Mat image = lrf::center_crop_to_multiple(lrf::read_image_rgb(first_fern_image()), 8);
-  at::Tensor x = lrf::image_to_tensor(image).narrow(2, 100, 64).narrow(3, 200, 64).contiguous();
+  at::Tensor x = lrf::image_to_batch(image).narrow(2, 100, 64).narrow(3, 200, 64).contiguous();
   // Make the task non-trivial: the target is a brightened image, which the frozen decoder can only
   // approach through the encoder's latents.
   at::Tensor target = (x * 1.2).clamp(0, 1);

@@ -112,18 +112,18 @@ TEST(EvalMetrics, CvMatOverloadsAgreeWithTensors) {
   cv::RNG rng(7);
   rng.fill(a, cv::RNG::UNIFORM, 0.0, 1.0);
   rng.fill(b, cv::RNG::UNIFORM, 0.0, 1.0);
-  auto ta = lrf::image_to_tensor(a);
+  auto ta = lrf::image_to_chw(a);
   ASSERT_EQ(ta.sizes(), (std::vector<int64_t>{3, 12, 10}));
   EXPECT_FLOAT_EQ(ta[1][4][7].item<float>(), a.at<cv::Vec3f>(4, 7)[1]);
-  EXPECT_DOUBLE_EQ(lrf::psnr(a, b), lrf::psnr(ta, lrf::image_to_tensor(b)));
-  EXPECT_DOUBLE_EQ(lrf::ssim(a, b), lrf::ssim(ta, lrf::image_to_tensor(b)));
+  EXPECT_DOUBLE_EQ(lrf::psnr(a, b), lrf::psnr(ta, lrf::image_to_chw(b)));
+  EXPECT_DOUBLE_EQ(lrf::ssim(a, b), lrf::ssim(ta, lrf::image_to_chw(b)));
   // 8-bit images are scaled to [0, 1].
   cv::Mat u8(4, 4, CV_8UC3, cv::Scalar(255, 0, 51));
-  auto t8 = lrf::image_to_tensor(u8);
+  auto t8 = lrf::image_to_chw(u8);
   EXPECT_FLOAT_EQ(t8[0][0][0].item<float>(), 1.0f);
   EXPECT_FLOAT_EQ(t8[2][3][3].item<float>(), 0.2f);
   // One-channel images too (the tensor must own its memory: the Mat is gone after the call).
-  auto t1 = lrf::image_to_tensor(cv::Mat(3, 5, CV_32FC1, cv::Scalar(0.25)));
+  auto t1 = lrf::image_to_chw(cv::Mat(3, 5, CV_32FC1, cv::Scalar(0.25)));
   EXPECT_EQ(t1.sizes(), (std::vector<int64_t>{1, 3, 5}));
   EXPECT_FLOAT_EQ(t1.sum().item<float>(), 15 * 0.25f);
 }

@@ -15,6 +15,7 @@
 #include "command.h"
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/eval/metrics.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -68,7 +69,7 @@ at::Tensor load_image(const std::string& path, cv::Size* original, cv::Size* cro
     lrf::fail(path, e.what());
   }
   *cropped = crop.size();
-  return lrf::image_to_tensor(crop);
+  return lrf::image_to_batch(crop);
 }
 
 struct RoundtripOptions {
@@ -98,7 +99,7 @@ int run_roundtrip(const ModelOptions& m, const RoundtripOptions& o) {
     t0 = std::chrono::steady_clock::now();
     at::Tensor y = ae->decode(z);
     double dec = seconds_since(t0);
-    double p = lrf::psnr(y, x);
+    double p = lrf::psnr(y.squeeze(0), x.squeeze(0));
     psnr_sum += p;
     enc_sum += enc;
     dec_sum += dec;

@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "lrf/field/latent_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -19,11 +20,29 @@ namespace {
 struct EvalOptions {
   std::string out;
   double scale = 1.0;
+  std::string decoder;
+  std::string lpips_weights;
 };
+
+int run_eval_latent(const EvalOptions& o) {
+  if (o.scale != 1.0) lrf::fail("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
+  lrf::LatentEvalOptions le;
+  le.decoder = o.decoder;
+  le.lpips_weights = o.lpips_weights;
+  auto m = lrf::evaluate_latent_run(o.out, le);
+  nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"lpips", m["lpips"]},
+                          {"roundtrip_psnr", m["roundtrip_psnr"]}, {"latent_psnr", m["latent_psnr"]},
+                          {"views", m["views"].size()}};
+  std::printf("%s\n", brief.dump().c_str());
+  lrf::log_info("wrote " + (fs::path(o.out) / "metrics.json").string());
+  return 0;
+}
 
 int run_eval(const EvalOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
+  if (is_latent_run(o.out)) return run_eval_latent(o);
+  if (!o.decoder.empty() || !o.lpips_weights.empty()) fail("--decoder and --lpips-weights apply to latent fields");
   auto run = open_field_run(o.out);
   if (run.scene.test_indices.empty()) fail(o.out, "the scene has no test views");
   nlohmann::json views = nlohmann::json::array();
@@ -61,10 +80,14 @@ int run_eval(const EvalOptions& o) {
 }
 
 lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
-  auto* cmd = root.add_subcommand("eval", "Score a trained field on the test views (writes OUT/metrics.json)");
+  auto* cmd = root.add_subcommand("eval", "Score a trained field on the test views (writes OUT/metrics.json); latent fields are decoded first");
   auto o = std::make_shared<EvalOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train")->required();
   cmd->add_option("--scale", o->scale, "Evaluate at this multiple of the training resolution")->capture_default_str();
+  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's)");
+  cmd->add_option("--lpips-weights", o->lpips_weights,
+                  "Latent fields: LPIPS (VGG, lpips v0.1 layout: net.slice*/lin* keys) weights file; without it "
+                  "metrics.json has \"lpips\": null and the reason");
   lrf::cli::on_run(cmd, [o] { return run_eval(*o); });
 });
 

@@ -7,6 +7,7 @@
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
+#include "lrf/field/latent_run.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/field_run.h"
 #include "lrf/splat/rgb_field.h"
@@ -22,6 +23,7 @@ struct TrainOptions {
   int downscale = 1;
   int64_t iters = 30000;
   int sh_degree = 3;
+  bool sh_degree_set = false;
   bool mip = false;
   uint64_t seed = 0;
   int64_t max_gaussians = 0;
@@ -31,7 +33,36 @@ struct TrainOptions {
   int64_t checkpoint_every = 1000;
   bool sparse_adam = false;
   bool white_background = false;
+  // --space latent (Stage II)
+  std::string autoencoder = "taef2";
+  std::string encoder;
+  std::string init = "latents";
+  std::string cache_dir;
 };
+
+int run_train_latent(const TrainOptions& o) {
+  lrf::LatentTrainOptions l;
+  l.scene = o.scene;
+  l.out = o.out;
+  l.images = o.images;
+  l.autoencoder = o.autoencoder;
+  l.encoder = o.encoder;
+  l.init = o.init;
+  l.cache_dir = o.cache_dir;
+  l.downscale = o.downscale;
+  l.test_every = o.test_every;
+  l.sh_degree = o.sh_degree_set ? o.sh_degree : lrf::kDefaultLatentShDegree;
+  l.iters = o.iters;
+  l.max_gaussians = o.max_gaussians;
+  l.checkpoint_every = o.checkpoint_every;
+  l.seed = o.seed;
+  l.resume = o.resume;
+  l.force = o.force;
+  l.sparse_adam = o.sparse_adam;
+  if (o.mip) lrf::fail("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
+  lrf::train_latent_field(l);
+  return 0;
+}
 
 nlohmann::json to_json(const TrainOptions& o) {
   return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
@@ -45,7 +76,8 @@ nlohmann::json to_json(const TrainOptions& o) {
 int run_train(const TrainOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
-  if (o.space != "rgb") fail("--space '" + o.space + "' is not available: this build trains 'rgb' fields");
+  if (o.space == "latent") return run_train_latent(o);
+  if (o.space != "rgb") fail("--space must be rgb or latent, got '" + o.space + "'");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
   if (o.downscale < 1) fail("--downscale must be at least 1");
@@ -112,14 +144,30 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   auto* cmd = root.add_subcommand("train", "Fit a Gaussian field (3D Gaussian splatting) to a scene");
   auto o = std::make_shared<TrainOptions>();
   cmd->add_option("scene", o->scene, "Scene folder (COLMAP, LLFF or NeRF transforms.json)")->required();
-  cmd->add_option("--space", o->space, "Feature space of the field: rgb")->capture_default_str();
+  cmd->add_option("--space", o->space,
+                  "Feature space of the field: rgb (colours) or latent (Stage II: the autoencoder's latents of the "
+                  "views, cropped to multiples of 8, fitted at 1/8 resolution)")
+      ->check(CLI::IsMember({"rgb", "latent"}))
+      ->capture_default_str();
+  cmd->add_option("--autoencoder", o->autoencoder, "latent: autoencoder name (in $LRF_MODELS, ./models, "
+                                                   "../shared/models) or path")
+      ->capture_default_str();
+  cmd->add_option("--encoder", o->encoder, "latent: fine-tuned encoder weights (Stage I) replacing the stock encoder");
+  cmd->add_option("--init", o->init, "latent: starting features: latents (sampled from the training latents at the "
+                                     "SfM points' projections) or rgb (the paper code's RGB-in-first-channels)")
+      ->check(CLI::IsMember({"latents", "rgb"}))
+      ->capture_default_str();
+  cmd->add_option("--cache-dir", o->cache_dir, "latent: where encoded views are cached (default $LRF_CACHE or "
+                                               "~/.cache/lrf)");
   cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
   auto* images = cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
   cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")
       ->capture_default_str()
       ->excludes(images);
   cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
-  cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3)")->capture_default_str();
+  cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3; default 3 for rgb, " +
+                                                   std::to_string(lrf::kDefaultLatentShDegree) + " for latent)")
+      ->each([o](const std::string&) { o->sh_degree_set = true; });
   cmd->add_flag("--mip", o->mip, "Mip-Splatting: 3D smoothing filter and 2D Mip filter");
   cmd->add_option("--seed", o->seed, "Random seed (view order, initialisation, splits)")->capture_default_str();
   cmd->add_option("--max-gaussians", o->max_gaussians, "Cap on the number of Gaussians (0 = none)")

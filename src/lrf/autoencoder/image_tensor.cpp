@@ -17,8 +17,8 @@ cv::Mat center_crop_to_multiple(const cv::Mat& image, int multiple) {
   return image(cv::Rect((image.cols - w) / 2, (image.rows - h) / 2, w, h)).clone();
 }
 
-at::Tensor image_to_tensor(const cv::Mat& rgb) {
-  if (rgb.type() != CV_32FC3) fail("image_to_tensor: expected an RGB float image");
+at::Tensor image_to_batch(const cv::Mat& rgb) {
+  if (rgb.type() != CV_32FC3) fail("image_to_batch: expected an RGB float image");
   cv::Mat c = rgb.isContinuous() ? rgb : rgb.clone();
   return torch::from_blob(c.data, {c.rows, c.cols, 3}, torch::kFloat).permute({2, 0, 1}).unsqueeze(0).contiguous();
 }
@@ -30,11 +30,6 @@ cv::Mat tensor_to_image(const at::Tensor& image) {
   cv::Mat out(static_cast<int>(t.size(0)), static_cast<int>(t.size(1)), CV_32FC3);
   std::memcpy(out.data, t.data_ptr<float>(), static_cast<std::size_t>(t.numel()) * sizeof(float));
   return out;
-}
-
-double psnr(const at::Tensor& a, const at::Tensor& b) {
-  double mse = (a.to(torch::kDouble) - b.to(torch::kDouble)).pow(2).mean().item<double>();
-  return mse <= 0 ? INFINITY : -10.0 * std::log10(mse);
 }
 
 }  // namespace lrf

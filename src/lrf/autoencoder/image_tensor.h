@@ -9,10 +9,8 @@ namespace lrf {
 // this way). Throws lrf::Error if the image is smaller than `multiple` in either direction.
 cv::Mat center_crop_to_multiple(const cv::Mat& image, int multiple);
 // CV_32FC3 -> [1,3,H,W] float32 (a copy).
-at::Tensor image_to_tensor(const cv::Mat& rgb);
+at::Tensor image_to_batch(const cv::Mat& rgb);
 // [3,H,W] or [1,3,H,W] -> CV_32FC3 (a copy).
 cv::Mat tensor_to_image(const at::Tensor& image);
-// Peak signal-to-noise ratio of two images in [0,1] (peak 1), over all elements.
-double psnr(const at::Tensor& a, const at::Tensor& b);
 
 }  // namespace lrf

@@ -224,7 +224,7 @@ double Lpips::distance(const torch::Tensor& a, const torch::Tensor& b) const {
 }
 
 double Lpips::distance(const cv::Mat& a, const cv::Mat& b) const {
-  return distance(image_to_tensor(a), image_to_tensor(b));
+  return distance(image_to_chw(a), image_to_chw(b));
 }
 
 }  // namespace lrf

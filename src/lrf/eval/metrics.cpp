@@ -109,10 +109,10 @@ double ssim(const torch::Tensor& a, const torch::Tensor& b, double max) {
   return map.mean().item<double>();
 }
 
-torch::Tensor image_to_tensor(const cv::Mat& image) {
-  if (image.empty()) fail("image_to_tensor: empty image");
+torch::Tensor image_to_chw(const cv::Mat& image) {
+  if (image.empty()) fail("image_to_chw: empty image");
   if (image.depth() != CV_8U && image.depth() != CV_32F) {
-    fail("image_to_tensor: expected an 8-bit or float32 image, got OpenCV depth " + std::to_string(image.depth()));
+    fail("image_to_chw: expected an 8-bit or float32 image, got OpenCV depth " + std::to_string(image.depth()));
   }
   cv::Mat f;
   image.convertTo(f, CV_32F, image.depth() == CV_8U ? 1.0 / 255.0 : 1.0);  // also makes it continuous
@@ -122,8 +122,8 @@ torch::Tensor image_to_tensor(const cv::Mat& image) {
   return hwc.permute({2, 0, 1}).clone(at::MemoryFormat::Contiguous);
 }
 
-double psnr(const cv::Mat& a, const cv::Mat& b) { return psnr(image_to_tensor(a), image_to_tensor(b)); }
+double psnr(const cv::Mat& a, const cv::Mat& b) { return psnr(image_to_chw(a), image_to_chw(b)); }
 
-double ssim(const cv::Mat& a, const cv::Mat& b) { return ssim(image_to_tensor(a), image_to_tensor(b)); }
+double ssim(const cv::Mat& a, const cv::Mat& b) { return ssim(image_to_chw(a), image_to_chw(b)); }
 
 }  // namespace lrf

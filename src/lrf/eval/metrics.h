@@ -29,6 +29,6 @@ double ssim(const torch::Tensor& a, const torch::Tensor& b, double max = 1.0);
 double ssim(const cv::Mat& a, const cv::Mat& b);
 
 // [C, H, W] float32 tensor of an RGB cv::Mat (float in [0, 1] or 8-bit, 1 or 3 channels); copies.
-torch::Tensor image_to_tensor(const cv::Mat& image);
+torch::Tensor image_to_chw(const cv::Mat& image);
 
 }  // namespace lrf

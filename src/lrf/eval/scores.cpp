@@ -12,8 +12,8 @@ ImageScores score_image(const cv::Mat& truth, const cv::Mat& render, const Lpips
                    "x" + std::to_string(truth.rows) + "x" + std::to_string(truth.channels()));
   }
   try {
-    auto t = image_to_tensor(truth);
-    auto r = image_to_tensor(render);
+    auto t = image_to_chw(truth);
+    auto r = image_to_chw(render);
     ImageScores s;
     s.psnr = psnr(t, r);
     s.ssim = ssim(t, r);
