@@ -96,6 +96,8 @@ TEST_F(TorchZipCases, RefusesForbiddenGlobalsNamingThem) {
 TEST_F(TorchZipCases, RefusesStorageLargerThanItsBytes) {
   expect_error([&] { lrf::load_state_dict(path("huge_storage.pth")); }, {"claims 1000000000 elements", "16 bytes"});
   expect_error([&] { lrf::load_state_dict(path("view_overflow.pth")); }, {"exceeds its storage"});
+  expect_error([&] { lrf::load_state_dict(path("entry_past_end.pth")); },
+               {"archive/data/0", "4026531840 bytes extends past the end"});
 }
 
 TEST(TorchZip, RefusesNotAZipAndTruncatedArchives) {

@@ -359,6 +359,17 @@ def cmd_zipcases(a):
     # A view reaching past the end of its 4-element storage.
     raw_zip(os.path.join(a.out, "view_overflow.pth"),
             tensor_pickle("FloatStorage", "0", 4, 2, [3], [1]), {"0": b"\0" * 16})
+    # A storage entry whose central-directory size claims 4 GB in a file of a few hundred bytes.
+    path = os.path.join(a.out, "entry_past_end.pth")
+    raw_zip(path, tensor_pickle("FloatStorage", "0", 4, 0, [4], [1]), {"0": b"\0" * 16})
+    data = bytearray(open(path, "rb").read())
+    at = data.find(b"PK\x01\x02")
+    while at >= 0:
+        n = struct.unpack("<H", data[at + 28:at + 30])[0]
+        if data[at + 46:at + 46 + n] == b"archive/data/0":
+            data[at + 20:at + 28] = struct.pack("<II", 0xF0000000, 0xF0000000)
+        at = data.find(b"PK\x01\x02", at + 4)
+    open(path, "wb").write(bytes(data))
     # A well-formed hand-built one (checks the helper itself).
     raw_zip(os.path.join(a.out, "handmade_ok.pth"),
             tensor_pickle("FloatStorage", "0", 4, 1, [2], [2]), {"0": struct.pack("<4f", 1, 2, 3, 4)})
