@@ -86,10 +86,9 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
 class KLReference : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = lrf_test::fresh_dir("kl_ref");
-    ok_ = lrf_test::run_reference("kl --ch 32 --size 64 --out " + dir_.string());
+    dir_ = lrf_test::cached_fixture("kl", "kl --ch 32 --size 64");
+    ok_ = !dir_.empty();
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
   void SetUp() override { ASSERT_TRUE(ok_) << "fixture generation failed (see the message above)"; }
   static std::string path(const std::string& name) { return (dir_ / name).string(); }
 
@@ -140,17 +139,20 @@ TEST_F(KLReference, SampleIsMeanPlusScaledNoise) {
 TEST_F(KLReference, SaveAndReloadHalvesRoundTrip) {
   torch::NoGradGuard no_grad;
   auto ae = lrf::load_autoencoder(path("kl_diffusers.safetensors"));
-  ae->save_encoder(path("enc.safetensors"));
-  ae->save_decoder(path("dec.safetensors"));
+  auto own = lrf_test::fresh_dir("kl_halves");  // the shared fixture folder stays read-only
+  std::string enc = (own / "enc.safetensors").string(), dec = (own / "dec.safetensors").string();
+  ae->save_encoder(enc);
+  ae->save_decoder(dec);
   auto fresh = std::make_unique<lrf::KLAutoencoder>(dynamic_cast<lrf::KLAutoencoder&>(*ae).config());
-  fresh->load_encoder(path("enc.safetensors"));
-  fresh->load_decoder(path("dec.safetensors"));
+  fresh->load_encoder(enc);
+  fresh->load_decoder(dec);
   fresh->set_channels_last(ae->channels_last());  // same kernels, so equal weights give equal outputs
   auto ref = lrf::read_safetensors(path("reference.safetensors"));
   EXPECT_TRUE(torch::equal(fresh->encode(ref["image"]), ae->encode(ref["image"])));
   // Overrides through the factory: the ldm file with the saved halves swapped in.
-  auto over = lrf::load_autoencoder(path("kl_ldm.safetensors"), path("enc.safetensors"), path("dec.safetensors"));
+  auto over = lrf::load_autoencoder(path("kl_ldm.safetensors"), enc, dec);
   EXPECT_TRUE(torch::equal(over->decode(over->encode(ref["image"])), ae->decode(ae->encode(ref["image"]))));
+  fs::remove_all(own);
 }
 
 TEST(KLAutoencoder, StrictLoadingListsMissingUnexpectedAndMisshapedKeys) {
