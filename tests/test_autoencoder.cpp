@@ -11,6 +11,7 @@
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/resolve.h"
 #include "lrf/autoencoder/tiny_ae.h"
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/safetensors.h"
@@ -62,12 +63,16 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   ASSERT_EQ(image.rows, 376);
   at::Tensor x = lrf::image_to_tensor(image);
 
-  auto dir = lrf_test::fresh_dir("taef2_ref");
+  // The input goes to a path named after its content, so that the PyTorch output can be cached.
   lrf::StateDict input;
   input.insert("image", x);
-  lrf::write_safetensors((dir / "input.safetensors").string(), input);
-  ASSERT_TRUE(lrf_test::run_reference("taef2 --weights " + taef2_dir() + " --input " + (dir / "input.safetensors").string() +
-                                      " --out " + (dir / "ref.safetensors").string()));
+  std::string bytes = lrf::serialize_safetensors(input);
+  fs::path input_path = fs::path(LRF_BINARY).parent_path() / "test_fixtures" /
+                        ("taef2-input-" + std::to_string(std::hash<std::string>{}(bytes)) + ".safetensors");
+  fs::create_directories(input_path.parent_path());
+  if (!fs::exists(input_path)) lrf::write_file_atomic(input_path.string(), bytes);
+  fs::path dir = lrf_test::cached_fixture("taef2", "taef2 --weights " + taef2_dir() + " --input " + input_path.string());
+  ASSERT_FALSE(dir.empty());
   auto ref = lrf::read_safetensors((dir / "ref.safetensors").string());
 
   at::Tensor z = ae->encode(x);
@@ -80,7 +85,6 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   EXPECT_LE(dy, kTolerance);
   // The reconstruction itself is sane (the full 20-view figure is measured by `lrf ae roundtrip`).
   EXPECT_GT(lrf::psnr(y, x), 20.0);
-  fs::remove_all(dir);
 }
 
 class KLReference : public ::testing::Test {

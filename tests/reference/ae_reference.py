@@ -2,9 +2,9 @@
 """PyTorch references for lrf's C++ autoencoders and weight readers (run by the C++ tests).
 
 Writes fixtures into the folder given on the command line, never into the repository:
-  taef2   --weights DIR --input IN.safetensors --out OUT.safetensors
+  taef2   --weights DIR --input IN.safetensors --out DIR
           TAESD-family network (taesd.py's architecture, with TAEF2's GroupNorm "pool" branch) on the
-          real weights: {"latent", "decoded"} for the input {"image"}.
+          real weights: DIR/ref.safetensors {"latent", "decoded"} for the input {"image"}.
   kl      --out DIR [--ch 32] [--size 64] [--seed 0]
           KL-f8 AutoencoderKL (ldm's architecture) with random weights, saved as ldm and diffusers key
           layouts in .safetensors and .ckpt, plus reference.safetensors {"image", "moments", "decoded"}.
@@ -120,7 +120,8 @@ def cmd_taef2(a):
     with torch.no_grad():
         latent = enc.float()(image)
         decoded = dec.float()(latent).clamp(0, 1)
-    save_safetensors(a.out, {"latent": latent, "decoded": decoded})
+    os.makedirs(a.out, exist_ok=True)
+    save_safetensors(os.path.join(a.out, "ref.safetensors"), {"latent": latent, "decoded": decoded})
 
 
 # ---------- KL-f8 AutoencoderKL (ldm layout) ----------
