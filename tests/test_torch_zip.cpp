@@ -92,6 +92,11 @@ TEST_F(TorchZipCases, RefusesForbiddenGlobalsNamingThem) {
   expect_error([&] { lrf::load_state_dict(path("evil_popen.pth")); }, {"subprocess.Popen"});
 }
 
+TEST_F(TorchZipCases, CompressedEntriesAreAClearError) {
+  expect_error([&] { lrf::load_state_dict(path("compressed.pth")); },
+               {"compressed.pth", "archive/data.pkl", "is compressed", "re-save"});
+}
+
 TEST_F(TorchZipCases, RefusesStorageLargerThanItsBytes) {
   expect_error([&] { lrf::load_state_dict(path("huge_storage.pth")); }, {"claims 1000000000 elements", "16 bytes"});
   expect_error([&] { lrf::load_state_dict(path("view_overflow.pth")); }, {"exceeds its storage"});

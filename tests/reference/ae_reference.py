@@ -371,6 +371,10 @@ def cmd_zipcases(a):
             data[at + 20:at + 28] = struct.pack("<II", 0xF0000000, 0xF0000000)
         at = data.find(b"PK\x01\x02", at + 4)
     open(path, "wb").write(bytes(data))
+    # A re-zipped checkpoint with deflate-compressed entries (torch.save never compresses).
+    with zipfile.ZipFile(os.path.join(a.out, "compressed.pth"), "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("archive/data.pkl", tensor_pickle("FloatStorage", "0", 4, 0, [4], [1]))
+        z.writestr("archive/data/0", b"\0" * 16)
     # A well-formed hand-built one (checks the helper itself).
     raw_zip(os.path.join(a.out, "handmade_ok.pth"),
             tensor_pickle("FloatStorage", "0", 4, 1, [2], [2]), {"0": struct.pack("<4f", 1, 2, 3, 4)})
