@@ -72,6 +72,14 @@ inline std::filesystem::path cached_fixture(const std::string& name, const std::
   std::error_code ec;
   fs::rename(tmp, final_dir, ec);  // fails harmlessly if another process got there first
   if (ec) fs::remove_all(tmp);
+  // Fixtures of earlier versions of the script are never used again: remove them.
+  for (const auto& entry : fs::directory_iterator(root, ec)) {
+    const std::string other = entry.path().filename().string();
+    if (entry.is_directory() && other.rfind(name + "-", 0) == 0 && other.find(".tmp") == std::string::npos &&
+        entry.path() != final_dir) {
+      fs::remove_all(entry.path(), ec);
+    }
+  }
   return final_dir;
 }
 
