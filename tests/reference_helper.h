@@ -1,8 +1,11 @@
 #pragma once
-// Runs tests/reference/ae_reference.py with Debian's python3 + torch, writing fixtures into a fresh
-// temporary folder (never into the repository).
+// Runs tests/reference/ae_reference.py with Debian's python3 + torch, writing fixtures into a temporary
+// or build folder (never into the repository).
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
 #include <string>
 
 #include <unistd.h>
@@ -34,6 +37,50 @@ inline ::testing::AssertionResult run_reference(const std::string& args) {
   int rc = std::system(cmd.c_str());
   if (rc != 0) return ::testing::AssertionFailure() << "reference script failed (" << rc << "): " << cmd;
   return ::testing::AssertionSuccess();
+}
+
+// Fixtures that depend only on the reference script and its arguments are generated once per build
+// folder and reused by later test processes (ctest runs every test in its own process): the folder
+// <build>/test_fixtures/<name>-<hash of script + args>. Generation writes into a private folder that is
+// then renamed into place, so concurrent tests (ctest -j) never see a half-written fixture. Returns
+// an empty path (after a test failure) if generation fails.
+inline std::filesystem::path cached_fixture(const std::string& name, const std::string& args) {
+  namespace fs = std::filesystem;
+  std::string script;
+  {
+    std::ifstream in(std::string(LRF_SOURCE_DIR) + "/tests/reference/ae_reference.py", std::ios::binary);
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    script = ss.str();
+  }
+  std::ostringstream key;
+  key << name << "-" << std::hex << std::hash<std::string>{}(script + "\n" + args);
+  fs::path root = fs::path(LRF_BINARY).parent_path() / "test_fixtures";
+  fs::path final_dir = root / key.str();
+  if (fs::exists(final_dir / "done")) return final_dir;
+  fs::create_directories(root);
+  fs::path tmp = root / (key.str() + ".tmp" + std::to_string(::getpid()));
+  fs::remove_all(tmp);
+  fs::create_directories(tmp);
+  auto ok = run_reference(args + " --out " + tmp.string());
+  if (!ok) {
+    ADD_FAILURE() << ok.message();
+    fs::remove_all(tmp);
+    return {};
+  }
+  std::ofstream(tmp / "done") << "ok\n";
+  std::error_code ec;
+  fs::rename(tmp, final_dir, ec);  // fails harmlessly if another process got there first
+  if (ec) fs::remove_all(tmp);
+  // Fixtures of earlier versions of the script are never used again: remove them.
+  for (const auto& entry : fs::directory_iterator(root, ec)) {
+    const std::string other = entry.path().filename().string();
+    if (entry.is_directory() && other.rfind(name + "-", 0) == 0 && other.find(".tmp") == std::string::npos &&
+        entry.path() != final_dir) {
+      fs::remove_all(entry.path(), ec);
+    }
+  }
+  return final_dir;
 }
 
 inline std::string shared_dir() { return LRF_SHARED_DIR; }

@@ -12,6 +12,7 @@
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/resolve.h"
 #include "lrf/autoencoder/tiny_ae.h"
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/safetensors.h"
@@ -63,12 +64,16 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   ASSERT_EQ(image.rows, 376);
   at::Tensor x = lrf::image_to_batch(image);
 
-  auto dir = lrf_test::fresh_dir("taef2_ref");
+  // The input goes to a path named after its content, so that the PyTorch output can be cached.
   lrf::StateDict input;
   input.insert("image", x);
-  lrf::write_safetensors((dir / "input.safetensors").string(), input);
-  ASSERT_TRUE(lrf_test::run_reference("taef2 --weights " + taef2_dir() + " --input " + (dir / "input.safetensors").string() +
-                                      " --out " + (dir / "ref.safetensors").string()));
+  std::string bytes = lrf::serialize_safetensors(input);
+  fs::path input_path = fs::path(LRF_BINARY).parent_path() / "test_fixtures" /
+                        ("taef2-input-" + std::to_string(std::hash<std::string>{}(bytes)) + ".safetensors");
+  fs::create_directories(input_path.parent_path());
+  if (!fs::exists(input_path)) lrf::write_file_atomic(input_path.string(), bytes);
+  fs::path dir = lrf_test::cached_fixture("taef2", "taef2 --weights " + taef2_dir() + " --input " + input_path.string());
+  ASSERT_FALSE(dir.empty());
   auto ref = lrf::read_safetensors((dir / "ref.safetensors").string());
 
   at::Tensor z = ae->encode(x);
@@ -81,16 +86,14 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   EXPECT_LE(dy, kTolerance);
   // The reconstruction itself is sane (the full 20-view figure is measured by `lrf ae roundtrip`).
   EXPECT_GT(lrf::psnr(y.squeeze(0), x.squeeze(0)), 20.0);
-  fs::remove_all(dir);
 }
 
 class KLReference : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = lrf_test::fresh_dir("kl_ref");
-    ok_ = lrf_test::run_reference("kl --ch 32 --size 64 --out " + dir_.string());
+    dir_ = lrf_test::cached_fixture("kl", "kl --ch 32 --size 64");
+    ok_ = !dir_.empty();
   }
-  static void TearDownTestSuite() { fs::remove_all(dir_); }
   void SetUp() override { ASSERT_TRUE(ok_) << "fixture generation failed (see the message above)"; }
   static std::string path(const std::string& name) { return (dir_ / name).string(); }
 
@@ -141,17 +144,20 @@ TEST_F(KLReference, SampleIsMeanPlusScaledNoise) {
 TEST_F(KLReference, SaveAndReloadHalvesRoundTrip) {
   torch::NoGradGuard no_grad;
   auto ae = lrf::load_autoencoder(path("kl_diffusers.safetensors"));
-  ae->save_encoder(path("enc.safetensors"));
-  ae->save_decoder(path("dec.safetensors"));
+  auto own = lrf_test::fresh_dir("kl_halves");  // the shared fixture folder stays read-only
+  std::string enc = (own / "enc.safetensors").string(), dec = (own / "dec.safetensors").string();
+  ae->save_encoder(enc);
+  ae->save_decoder(dec);
   auto fresh = std::make_unique<lrf::KLAutoencoder>(dynamic_cast<lrf::KLAutoencoder&>(*ae).config());
-  fresh->load_encoder(path("enc.safetensors"));
-  fresh->load_decoder(path("dec.safetensors"));
+  fresh->load_encoder(enc);
+  fresh->load_decoder(dec);
   fresh->set_channels_last(ae->channels_last());  // same kernels, so equal weights give equal outputs
   auto ref = lrf::read_safetensors(path("reference.safetensors"));
   EXPECT_TRUE(torch::equal(fresh->encode(ref["image"]), ae->encode(ref["image"])));
   // Overrides through the factory: the ldm file with the saved halves swapped in.
-  auto over = lrf::load_autoencoder(path("kl_ldm.safetensors"), path("enc.safetensors"), path("dec.safetensors"));
+  auto over = lrf::load_autoencoder(path("kl_ldm.safetensors"), enc, dec);
   EXPECT_TRUE(torch::equal(over->decode(over->encode(ref["image"])), ae->decode(ae->encode(ref["image"]))));
+  fs::remove_all(own);
 }
 
 TEST(KLAutoencoder, StrictLoadingListsMissingUnexpectedAndMisshapedKeys) {

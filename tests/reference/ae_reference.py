@@ -2,9 +2,9 @@
 """PyTorch references for lrf's C++ autoencoders and weight readers (run by the C++ tests).
 
 Writes fixtures into the folder given on the command line, never into the repository:
-  taef2   --weights DIR --input IN.safetensors --out OUT.safetensors
+  taef2   --weights DIR --input IN.safetensors --out DIR
           TAESD-family network (taesd.py's architecture, with TAEF2's GroupNorm "pool" branch) on the
-          real weights: {"latent", "decoded"} for the input {"image"}.
+          real weights: DIR/ref.safetensors {"latent", "decoded"} for the input {"image"}.
   kl      --out DIR [--ch 32] [--size 64] [--seed 0]
           KL-f8 AutoencoderKL (ldm's architecture) with random weights, saved as ldm and diffusers key
           layouts in .safetensors and .ckpt, plus reference.safetensors {"image", "moments", "decoded"}.
@@ -120,7 +120,8 @@ def cmd_taef2(a):
     with torch.no_grad():
         latent = enc.float()(image)
         decoded = dec.float()(latent).clamp(0, 1)
-    save_safetensors(a.out, {"latent": latent, "decoded": decoded})
+    os.makedirs(a.out, exist_ok=True)
+    save_safetensors(os.path.join(a.out, "ref.safetensors"), {"latent": latent, "decoded": decoded})
 
 
 # ---------- KL-f8 AutoencoderKL (ldm layout) ----------
@@ -359,6 +360,21 @@ def cmd_zipcases(a):
     # A view reaching past the end of its 4-element storage.
     raw_zip(os.path.join(a.out, "view_overflow.pth"),
             tensor_pickle("FloatStorage", "0", 4, 2, [3], [1]), {"0": b"\0" * 16})
+    # A storage entry whose central-directory size claims 4 GB in a file of a few hundred bytes.
+    path = os.path.join(a.out, "entry_past_end.pth")
+    raw_zip(path, tensor_pickle("FloatStorage", "0", 4, 0, [4], [1]), {"0": b"\0" * 16})
+    data = bytearray(open(path, "rb").read())
+    at = data.find(b"PK\x01\x02")
+    while at >= 0:
+        n = struct.unpack("<H", data[at + 28:at + 30])[0]
+        if data[at + 46:at + 46 + n] == b"archive/data/0":
+            data[at + 20:at + 28] = struct.pack("<II", 0xF0000000, 0xF0000000)
+        at = data.find(b"PK\x01\x02", at + 4)
+    open(path, "wb").write(bytes(data))
+    # A re-zipped checkpoint with deflate-compressed entries (torch.save never compresses).
+    with zipfile.ZipFile(os.path.join(a.out, "compressed.pth"), "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("archive/data.pkl", tensor_pickle("FloatStorage", "0", 4, 0, [4], [1]))
+        z.writestr("archive/data/0", b"\0" * 16)
     # A well-formed hand-built one (checks the helper itself).
     raw_zip(os.path.join(a.out, "handmade_ok.pth"),
             tensor_pickle("FloatStorage", "0", 4, 1, [2], [2]), {"0": struct.pack("<4f", 1, 2, 3, 4)})

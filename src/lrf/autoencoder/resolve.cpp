@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 
@@ -37,7 +38,8 @@ bool resolve_folder(const fs::path& dir, AutoencoderFiles* out) {
     if (!is_weights_file(entry.path())) continue;
     files.push_back(entry.path());
     std::string name = entry.path().filename().string();
-    std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+    std::transform(name.begin(), name.end(), name.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (name.find("encoder") != std::string::npos) enc.push_back(entry.path());
     if (name.find("decoder") != std::string::npos) dec.push_back(entry.path());
   }

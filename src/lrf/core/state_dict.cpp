@@ -1,5 +1,6 @@
 #include "lrf/core/state_dict.h"
 
+#include <filesystem>
 #include <fstream>
 
 #include "lrf/core/error.h"
@@ -20,8 +21,7 @@ StateDict load_state_dict(const std::string& path) {
   if (magic[0] == 0x80) {
     fail(path, "legacy (pre-1.6, non-zip) PyTorch checkpoint: re-save it with a recent torch.save");
   }
-  auto ext = path.substr(path.find_last_of('.') == std::string::npos ? path.size() : path.find_last_of('.'));
-  if (ext == ".safetensors") return read_safetensors(path);  // reports what is wrong with it
+  if (std::filesystem::path(path).extension() == ".safetensors") return read_safetensors(path);  // says what is wrong
   fail(path, "not a weights file: neither a PyTorch zip checkpoint nor safetensors");
 }
 

@@ -25,6 +25,8 @@ pickle::Ref read_torch_zip(const std::string& path) {
   if (const auto* order = zip.find(root + "/byteorder")) {
     if (zip.read(*order) != "little") fail(path, "big-endian checkpoints are not supported");
   }
+  // data.pkl of a real state dict is a few MB; refuse absurd sizes before reading them.
+  if (pkl->size > (512u << 20)) fail(path, "data.pkl of " + std::to_string(pkl->size) + " bytes is too large");
   std::string bytes = zip.read(*pkl);
 
   // Storages are shared between views (e.g. tied weights): load each key once.

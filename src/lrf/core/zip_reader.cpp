@@ -95,6 +95,11 @@ ZipReader::ZipReader(const std::string& path) : path_(path), src_(std::make_uniq
       xp += 4 + len;
     }
     if (entry.method == 0 && csize != entry.size) fail(path, "corrupt zip entry " + entry.name);
+    // Bounds every later allocation by the file size: an entry cannot extend past the end of the file.
+    if (entry.header_offset > size || csize > size - entry.header_offset || size - entry.header_offset - csize < 30) {
+      fail(path, "zip entry '" + entry.name + "' of " + std::to_string(csize) +
+                     " bytes extends past the end of the file (truncated or corrupt archive)");
+    }
     pos += 46 + name_len + extra_len + comment_len;
     entries_.push_back(std::move(entry));
   }
