@@ -62,14 +62,18 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
     const float* col = in.colors + static_cast<int64_t>(g) * C;
     float d_gx = 0, d_gy = 0, dA = 0, dB = 0, dC = 0, d_o = 0, d_z = 0;
     bool touched = false;
+    float row_alpha[kTileSize], row_gauss[kTileSize];
+    const int len = span.j1 - span.j0;
     for (int i = span.i0; i < span.i1; ++i) {
-      const float dy = gy - (i + 0.5f);
-      for (int j = span.j0; j < span.j1; ++j) {
-        const int p = (i - y0) * w + (j - x0);
-        if (pos > last[p]) continue;
-        const float dx = gx - (j + 0.5f);
-        float alpha, gauss;
-        if (!splat_alpha(A, B, Cc, o, dx, dy, &alpha, &gauss)) continue;
+      const float dy = gy - (i + 0.5f), dx0 = gx - (span.j0 + 0.5f);
+      splat_alpha_row(A, B, Cc, o, dx0, dy, len, row_alpha, row_gauss);
+      const int row = (i - y0) * w + (span.j0 - x0);
+      for (int kk = 0; kk < len; ++kk) {
+        const float alpha = row_alpha[kk];
+        const int p = row + kk;
+        if (alpha == 0.f || pos > last[p]) continue;
+        const float gauss = row_gauss[kk];
+        const float dx = dx0 - static_cast<float>(kk);
         if (!touched) {
           std::fill(dcol, dcol + C, 0.f);
           touched = true;

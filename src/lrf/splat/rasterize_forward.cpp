@@ -29,21 +29,23 @@ void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& 
   int remaining = npix;
 
   const int32_t begin = in.tile_offsets[tile], end = in.tile_offsets[tile + 1];
-  for (int32_t k = begin; k < end && remaining > 0; ++k) {
-    const int32_t g = in.tile_ids[k];
+  for (int32_t k0 = begin; k0 < end && remaining > 0; ++k0) {
+    const int32_t g = in.tile_ids[k0];
     const float gx = in.xy[2 * g], gy = in.xy[2 * g + 1];
     const PixelSpan span = splat_span(gx, gy, in.extent[2 * g], in.extent[2 * g + 1], x0, y0, x1, y1);
     if (span.empty()) continue;
     const float A = in.conic[3 * g], B = in.conic[3 * g + 1], Cc = in.conic[3 * g + 2];
     const float o = in.opacity[g], z = in.depth[g];
     const float* col = in.colors + static_cast<int64_t>(g) * C;
+    float row_alpha[kTileSize], row_gauss[kTileSize];
+    const int len = span.j1 - span.j0;
     for (int i = span.i0; i < span.i1; ++i) {
-      const float dy = gy - (i + 0.5f);
-      for (int j = span.j0; j < span.j1; ++j) {
-        const int p = (i - y0) * w + (j - x0);
-        if (done[p]) continue;
-        float alpha, gauss;
-        if (!splat_alpha(A, B, Cc, o, gx - (j + 0.5f), dy, &alpha, &gauss)) continue;
+      splat_alpha_row(A, B, Cc, o, gx - (span.j0 + 0.5f), gy - (i + 0.5f), len, row_alpha, row_gauss);
+      const int row = (i - y0) * w + (span.j0 - x0);
+      for (int k = 0; k < len; ++k) {
+        const float alpha = row_alpha[k];
+        const int p = row + k;
+        if (alpha == 0.f || done[p]) continue;
         const float next_T = T[p] * (1.f - alpha);
         if (next_T < kMinTransmittance) {
           done[p] = true;
@@ -55,7 +57,7 @@ void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& 
         for (int c = 0; c < C; ++c) a[c] += col[c] * weight;
         acc_depth[p] += z * weight;
         T[p] = next_T;
-        last[p] = k - begin;
+        last[p] = k0 - begin;
       }
     }
   }
