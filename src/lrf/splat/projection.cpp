@@ -162,8 +162,12 @@ void project_backward(int64_t n, const float* means, const float* log_scales, co
     dls[0] = dls[1] = dls[2] = 0;
     dq[0] = dq[1] = dq[2] = dq[3] = 0;
     d_opacity_logits[i] = 0;
+    // Splats hidden behind others get no gradient at all: common (most of a dense field), and cheap to skip.
+    const bool any = gin.xy[2 * i] != 0 || gin.xy[2 * i + 1] != 0 || gin.conic[3 * i] != 0 ||
+                     gin.conic[3 * i + 1] != 0 || gin.conic[3 * i + 2] != 0 || gin.opacity[i] != 0 ||
+                     gin.depth[i] != 0;
     Geometry g;
-    if (radii[i] == 0 || !compute_geometry(means + 3 * i, log_scales + 3 * i, quats + 4 * i, v, g)) continue;
+    if (!any || radii[i] == 0 || !compute_geometry(means + 3 * i, log_scales + 3 * i, quats + 4 * i, v, g)) continue;
     const double z = g.p[2];
 
     // Opacity: o = sigmoid(logit)·comp.
