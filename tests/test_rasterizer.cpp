@@ -434,3 +434,19 @@ TEST(Rasterizer, RejectsBadInput) {
   EXPECT_THROW(call(bad), lrf::Error);
   EXPECT_NO_THROW(call(s));
 }
+
+// No Gaussians (or none visible): the image is the background, alpha and depth are 0, and the backward
+// still runs.
+TEST(Rasterizer, EmptySceneIsBackground) {
+  Scene s = single_splat(1.0, 0.0);
+  s.settings.background = torch::tensor({0.25f});
+  std::vector<torch::Tensor> leaves = {torch::zeros({0, 3}), torch::zeros({0, 3}), torch::zeros({0, 4}),
+                                       torch::zeros({0, 1}), torch::zeros({0, 1, 1})};
+  for (auto& l : leaves) l.requires_grad_(true);
+  auto out = render(leaves[0], leaves[1], leaves[2], leaves[3], leaves[4], s.settings);
+  EXPECT_TRUE(torch::allclose(out.image, torch::full({1, 32, 32}, 0.25f)));
+  EXPECT_EQ(out.alpha.abs().sum().item<double>(), 0.0);
+  EXPECT_EQ(out.depth.abs().sum().item<double>(), 0.0);
+  out.image.sum().backward();
+  EXPECT_EQ(leaves[0].grad().numel(), 0);
+}

@@ -11,17 +11,21 @@ namespace {
 constexpr int kTilePixels = kTileSize * kTileSize;
 constexpr int kGeomGrads = 7;  // d xy (2), d conic (3), d opacity, d depth
 
-// Where one thread accumulates: per-Gaussian geometry gradients [N,7] and colour gradients [N,C].
+// Where one thread accumulates: per-Gaussian geometry gradients [N,7] and colour gradients [N,C]. A slot
+// is written (not added) the first time the thread touches that Gaussian, so the buffers never need zeroing.
 struct GradBuffer {
   float* geom;
   float* colors;
+  uint8_t* touched;
 };
 
-// One tile, walking its list back to front. For pixel colour P = Σ_k c_k α_k T_k + T_final·bg:
-//   ∂P/∂α_i = c_i·T_i − (R_i + T_final·bg)/(1 − α_i),   R_i = Σ_{k>i} c_k α_k T_k,
-// where T_i = T_{i+1}/(1 − α_i) is recovered from T_final. Only the scalar R·g is needed per pixel (g the
-// upstream gradient), so the state per pixel is a few floats whatever C is. alpha = 1 − T_final gives
-// ∂/∂α_i = T_final/(1 − α_i); depth is one more channel with colour z.
+// The buffers live with the calling thread and are reused by the next call: allocating tens of MB per
+// iteration costs page faults comparable to the work itself.
+struct ThreadGrads {
+  std::vector<float> geom, colors;
+  std::vector<uint8_t> touched;
+};
+
 #if defined(__SSE2__)
 inline float hsum(__m128 v) {
   const __m128 s = _mm_add_ps(v, _mm_movehl_ps(v, v));
@@ -199,15 +203,16 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
     const float* dcol_sum = dcol;
 #endif
     float* geom = buf.geom + static_cast<int64_t>(g) * kGeomGrads;
-    geom[0] += d_gx;
-    geom[1] += d_gy;
-    geom[2] += dA;
-    geom[3] += dB;
-    geom[4] += dC;
-    geom[5] += d_o;
-    geom[6] += d_z;
     float* gc = buf.colors + static_cast<int64_t>(g) * C;
-    for (int c = 0; c < C; ++c) gc[c] += dcol_sum[c];
+    const float sums[kGeomGrads] = {d_gx, d_gy, dA, dB, dC, d_o, d_z};
+    if (!buf.touched[g]) {
+      buf.touched[g] = 1;
+      for (int m = 0; m < kGeomGrads; ++m) geom[m] = sums[m];
+      for (int c = 0; c < C; ++c) gc[c] = dcol_sum[c];
+    } else {
+      for (int m = 0; m < kGeomGrads; ++m) geom[m] += sums[m];
+      for (int c = 0; c < C; ++c) gc[c] += dcol_sum[c];
+    }
   }
 }
 
@@ -216,18 +221,20 @@ void backward_impl(int64_t n, const RasterInputs& in, const RasterBackwardInputs
   const int C = in.channels;
   const int tiles = in.tiles_x * in.tiles_y;
   const int threads = std::max(1, std::min(omp_get_max_threads(), tiles));
-  // Thread 0 accumulates into the first buffer set, others into private ones, reduced at the end: no atomics
-  // in the hot loop. The geometry buffer is interleaved per Gaussian for locality.
-  std::vector<std::vector<float>> geom(threads), colors(threads);
+  // Each thread accumulates into its own buffers, reduced at the end: no atomics in the hot loop.
+  // (A thread_local named inside the parallel regions would be each worker's own: bind it here.)
+  thread_local std::vector<ThreadGrads> cache;
+  std::vector<ThreadGrads>& scratch = cache;
+  if (static_cast<int>(scratch.size()) < threads) scratch.resize(threads);
   for (int t = 0; t < threads; ++t) {
-    geom[t].assign(static_cast<size_t>(n) * kGeomGrads, 0.f);
-    if (t > 0) colors[t].assign(static_cast<size_t>(n) * C, 0.f);
+    scratch[t].geom.resize(static_cast<size_t>(n) * kGeomGrads);
+    scratch[t].colors.resize(static_cast<size_t>(n) * C);
+    scratch[t].touched.assign(n, 0);
   }
-  std::fill(out.colors, out.colors + n * C, 0.f);
 #pragma omp parallel num_threads(threads)
   {
     const int t = omp_get_thread_num();
-    GradBuffer buf{geom[t].data(), t == 0 ? out.colors : colors[t].data()};
+    GradBuffer buf{scratch[t].geom.data(), scratch[t].colors.data(), scratch[t].touched.data()};
     // Scratch: the tile's upstream gradient (channel-major) and 4C + C floats of colour accumulators,
     // 16-byte aligned for the SIMD lanes.
     std::vector<float> grad_pixels(static_cast<size_t>(kTilePixels) * C), dcol_buf(5 * C + 4);
@@ -238,11 +245,15 @@ void backward_impl(int64_t n, const RasterInputs& in, const RasterBackwardInputs
   }
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    float sum[kGeomGrads];
-    for (int k = 0; k < kGeomGrads; ++k) sum[k] = geom[0][i * kGeomGrads + k];
-    for (int t = 1; t < threads; ++t) {
-      for (int k = 0; k < kGeomGrads; ++k) sum[k] += geom[t][i * kGeomGrads + k];
-      for (int c = 0; c < C; ++c) out.colors[i * C + c] += colors[t][i * C + c];
+    float sum[kGeomGrads] = {0, 0, 0, 0, 0, 0, 0};
+    float* dc = out.colors + i * C;
+    std::fill(dc, dc + C, 0.f);
+    for (int t = 0; t < threads; ++t) {
+      if (!scratch[t].touched[i]) continue;
+      const float* geom = scratch[t].geom.data() + i * kGeomGrads;
+      const float* col = scratch[t].colors.data() + i * C;
+      for (int k = 0; k < kGeomGrads; ++k) sum[k] += geom[k];
+      for (int c = 0; c < C; ++c) dc[c] += col[c];
     }
     out.xy[2 * i] = sum[0];
     out.xy[2 * i + 1] = sum[1];
