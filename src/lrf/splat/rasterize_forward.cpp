@@ -16,7 +16,8 @@ constexpr int kTilePixels = kTileSize * kTileSize;
 // proportional to the splats' footprints rather than list length × 256. Colour accumulators are
 // channel-major (acc[c·256 + p]) so that 4 neighbouring pixels update together.
 template <int kC>
-void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& out, float* acc) {
+void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out,
+                  float* acc) {
   const int C = kC > 0 ? kC : in.channels;
   const int x0 = (tile % in.tiles_x) * kTileSize, y0 = (tile / in.tiles_x) * kTileSize;
   const int x1 = std::min(x0 + kTileSize, in.width), y1 = std::min(y0 + kTileSize, in.height);
@@ -38,7 +39,7 @@ void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& 
     if (span.empty()) continue;
     const float A = in.conic[3 * g], B = in.conic[3 * g + 1], Cc = in.conic[3 * g + 2];
     const float o = in.opacity[g], z = in.depth[g];
-    const float* col = in.colors + static_cast<int64_t>(g) * C;
+    const float* col = nullptr;  // evaluated when the splat is first blended
     alignas(16) float row_alpha[kTileSize], row_gauss[kTileSize];
     const int len = span.j1 - span.j0;
     for (int i = span.i0; i < span.i1; ++i) {
@@ -66,6 +67,7 @@ void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& 
         }
         const __m128 blend = _mm_andnot_ps(stop, hit);
         if (!_mm_movemask_ps(blend)) continue;
+        if (!col) col = source.get(g, C);
         const __m128 a = _mm_and_ps(alpha, blend);
         const __m128 weight = _mm_mul_ps(a, t);
         for (int c = 0; c < C; ++c) {
@@ -91,6 +93,7 @@ void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& 
           --remaining;
           continue;
         }
+        if (!col) col = source.get(g, C);
         const float weight = alpha * T[p];
         for (int c = 0; c < C; ++c) acc[c * kTilePixels + p] += col[c] * weight;
         acc_depth[p] += z * weight;
@@ -115,26 +118,26 @@ void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& 
 }
 
 template <int kC>
-void forward_impl(const RasterInputs& in, const RasterForwardOutputs& out) {
+void forward_impl(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out) {
   const int tiles = in.tiles_x * in.tiles_y;
 #pragma omp parallel
   {
     std::vector<float> acc(static_cast<size_t>(kTilePixels) * in.channels);
 #pragma omp for schedule(dynamic)
-    for (int t = 0; t < tiles; ++t) forward_tile<kC>(t, in, out, acc.data());
+    for (int t = 0; t < tiles; ++t) forward_tile<kC>(t, in, source, out, acc.data());
   }
 }
 
 }  // namespace
 
-void rasterize_forward(const RasterInputs& in, const RasterForwardOutputs& out) {
+void rasterize_forward(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out) {
   switch (in.channels) {
-    case 1: forward_impl<1>(in, out); break;
-    case 3: forward_impl<3>(in, out); break;
-    case 4: forward_impl<4>(in, out); break;
-    case 16: forward_impl<16>(in, out); break;
-    case 32: forward_impl<32>(in, out); break;
-    default: forward_impl<0>(in, out); break;
+    case 1: forward_impl<1>(in, source, out); break;
+    case 3: forward_impl<3>(in, source, out); break;
+    case 4: forward_impl<4>(in, source, out); break;
+    case 16: forward_impl<16>(in, source, out); break;
+    case 32: forward_impl<32>(in, source, out); break;
+    default: forward_impl<0>(in, source, out); break;
   }
 }
 
