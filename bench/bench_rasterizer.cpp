@@ -179,6 +179,7 @@ int main(int argc, char** argv) {
   if (!only.empty()) {
     for (int threads = 1; threads <= max_threads; ++threads) {
       if (only == "a") bench_case("(a)", 63, 47, 50000, 32, 1, 0.3, 3.0, threads, reps);
+      if (only == "a3") bench_case("(a)", 63, 47, 50000, 32, 3, 0.3, 3.0, threads, reps);
       if (only == "b") bench_case("(b)", 504, 378, 100000, 3, 1, 0.7, 8.0, threads, reps);
       if (only == "fps") bench_fps(threads, reps);
     }

@@ -17,6 +17,9 @@
 //   every discrete decision: when ±h lands on different pieces the step is divided by 8 (up to 3 times)
 //   and, failing that, the entry is not compared. At most 2% of entries may be skipped, so the test cannot
 //   pass by skipping.
+// - Observed: every gradient agrees to < 1e-3 of its tolerance, so the margin is for other machines and
+//   seeds; the tolerances are still tight enough to fail on Inria's straight-through gradient at the 0.99
+//   clamp or its approximate Jacobian-clamp derivative (both tried).
 #include <gtest/gtest.h>
 #include <omp.h>
 
