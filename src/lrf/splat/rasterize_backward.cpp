@@ -251,14 +251,16 @@ void backward_impl(int64_t n, const RasterInputs& in, const RasterBackwardInputs
   for (int64_t i = 0; i < n; ++i) {
     float sum[kGeomGrads] = {0, 0, 0, 0, 0, 0, 0};
     float* dc = out.colors + i * C;
-    std::fill(dc, dc + C, 0.f);
+    bool first = true;
     for (int t = 0; t < threads; ++t) {
       if (!scratch[t].touched[i]) continue;
       const float* geom = scratch[t].geom.data() + i * kGeomGrads;
       const float* col = scratch[t].colors.data() + i * C;
       for (int k = 0; k < kGeomGrads; ++k) sum[k] += geom[k];
-      for (int c = 0; c < C; ++c) dc[c] += col[c];
+      for (int c = 0; c < C; ++c) dc[c] = first ? col[c] : dc[c] + col[c];
+      first = false;
     }
+    if (first && !out.colors_only_touched) std::fill(dc, dc + C, 0.f);
     out.xy[2 * i] = sum[0];
     out.xy[2 * i + 1] = sum[1];
     out.conic[3 * i] = sum[2];
