@@ -114,3 +114,69 @@ TEST(Correspondences, SceneWithoutTracksIsAClearError) {
 }
 
 }  // namespace
+
+#include <sqlite3.h>
+
+namespace {
+
+void exec(sqlite3* db, const std::string& sql) {
+  char* err = nullptr;
+  ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, &err), SQLITE_OK) << (err ? err : "");
+}
+
+void insert_blob(sqlite3* db, const char* sql, int64_t id, int64_t rows, int64_t cols, const void* data, int bytes) {
+  sqlite3_stmt* st = nullptr;
+  ASSERT_EQ(sqlite3_prepare_v2(db, sql, -1, &st, nullptr), SQLITE_OK);
+  sqlite3_bind_int64(st, 1, id);
+  sqlite3_bind_int64(st, 2, rows);
+  sqlite3_bind_int64(st, 3, cols);
+  sqlite3_bind_blob(st, 4, data, bytes, SQLITE_TRANSIENT);
+  ASSERT_EQ(sqlite3_step(st), SQLITE_DONE);
+  sqlite3_finalize(st);
+}
+
+// A COLMAP database made from the synthetic scene's tracks (keypoints = observations, inlier matches =
+// shared points) reads back as the same correspondences the tracks give.
+TEST(Correspondences, ColmapDatabaseMatchesTheTracks) {
+  lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene());
+  lrf::test::TempDir tmp("colmap_db");
+  std::string path = tmp / "database.db";
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  exec(db, "CREATE TABLE images (image_id INTEGER PRIMARY KEY, name TEXT, camera_id INTEGER);"
+           "CREATE TABLE keypoints (image_id INTEGER, rows INTEGER, cols INTEGER, data BLOB);"
+           "CREATE TABLE two_view_geometries (pair_id INTEGER, rows INTEGER, cols INTEGER, data BLOB, config INTEGER);");
+  for (size_t v = 0; v < s.views.size(); ++v) {
+    exec(db, "INSERT INTO images VALUES (" + std::to_string(v + 1) + ", '" + s.views[v].name + "', 1);");
+    std::vector<float> kp;
+    for (const auto& ob : s.views[v].observations) {
+      kp.push_back(static_cast<float>(ob.pixel.x()));
+      kp.push_back(static_cast<float>(ob.pixel.y()));
+    }
+    insert_blob(db, "INSERT INTO keypoints VALUES (?, ?, ?, ?)", int64_t(v + 1), int64_t(kp.size() / 2), 2, kp.data(),
+                static_cast<int>(kp.size() * 4));
+  }
+  size_t expected_pairs = 0;
+  for (size_t a = 0; a < s.views.size(); ++a) {
+    for (size_t b = a + 1; b < s.views.size(); ++b) {
+      std::vector<uint32_t> idx;
+      const auto& oa = s.views[a].observations;
+      const auto& ob = s.views[b].observations;
+      for (size_t i = 0; i < oa.size(); ++i)
+        for (size_t j = 0; j < ob.size(); ++j)
+          if (oa[i].point_id == ob[j].point_id) idx.insert(idx.end(), {uint32_t(i), uint32_t(j)});
+      if (idx.size() / 2 < 15) continue;
+      ++expected_pairs;
+      int64_t pair = int64_t(a + 1) * 2147483647 + int64_t(b + 1);
+      insert_blob(db, "INSERT INTO two_view_geometries (pair_id, rows, cols, data) VALUES (?, ?, ?, ?)", pair,
+                  int64_t(idx.size() / 2), 2, idx.data(), static_cast<int>(idx.size() * 4));
+    }
+  }
+  sqlite3_close(db);
+  auto set = lrf::correspondences_from_database(s, path, 15);
+  EXPECT_EQ(set.pairs.size(), expected_pairs);
+  EXPECT_LT(lrf::summarize(set, s).epipolar_median_px, 1e-3);
+  EXPECT_THROW(lrf::correspondences_from_database(s, tmp / "missing.db", 15), lrf::Error);
+}
+
+}  // namespace

@@ -11,16 +11,6 @@
 namespace lrf {
 namespace {
 
-void fill_views(const Scene& scene, const std::string& source, CorrespondenceSet* set) {
-  set->scene = scene.root;
-  set->source = source;
-  for (const auto& v : scene.views) {
-    set->view_names.push_back(v.name);
-    set->widths.push_back(v.camera.width);
-    set->heights.push_back(v.camera.height);
-  }
-}
-
 std::vector<bool> usable_views(const Scene& scene, bool training_only) {
   std::vector<bool> ok(scene.views.size(), !training_only);
   if (training_only) {
@@ -35,10 +25,21 @@ bool inside(const Camera& c, const Eigen::Vector2d& p) {
 
 }  // namespace
 
+CorrespondenceSet empty_correspondences(const Scene& scene, const std::string& source) {
+  CorrespondenceSet set;
+  set.scene = scene.root;
+  set.source = source;
+  for (const auto& v : scene.views) {
+    set.view_names.push_back(v.name);
+    set.widths.push_back(v.camera.width);
+    set.heights.push_back(v.camera.height);
+  }
+  return set;
+}
+
 CorrespondenceSet correspondences_from_tracks(const Scene& scene, int min_matches, bool training_only) {
   if (!scene.has_tracks) fail(scene.root, "scene has no COLMAP tracks (images.bin 2D points with 3D point ids)");
-  CorrespondenceSet set;
-  fill_views(scene, "tracks", &set);
+  CorrespondenceSet set = empty_correspondences(scene, "tracks");
   auto ok = usable_views(scene, training_only);
   // point id -> observations (view, pixel), one per view (COLMAP can observe a point twice in an image
   // only through duplicate keypoints; keep the first).

@@ -36,6 +36,9 @@ struct MatchOptions {
   bool training_views_only = false;  // only pairs of training views (their test views stay unseen)
 };
 
+// An empty set describing `scene`'s views (names and sizes), for a source to fill.
+CorrespondenceSet empty_correspondences(const Scene& scene, const std::string& source);
+
 CorrespondenceSet correspondences_from_tracks(const Scene& scene, int min_matches = 15, bool training_views_only = false);
 CorrespondenceSet correspondences_from_database(const Scene& scene, const std::string& database_path,
                                                 int min_matches = 15, bool training_views_only = false);

@@ -83,14 +83,7 @@ CorrespondenceSet correspondences_from_database(const Scene& scene, const std::s
   }
   sqlite3_finalize(st);
 
-  CorrespondenceSet set;
-  set.scene = scene.root;
-  set.source = "colmap-db";
-  for (const auto& v : scene.views) {
-    set.view_names.push_back(v.name);
-    set.widths.push_back(v.camera.width);
-    set.heights.push_back(v.camera.height);
-  }
+  CorrespondenceSet set = empty_correspondences(scene, "colmap-db");
   st = db.prepare("SELECT pair_id, rows, cols, data FROM two_view_geometries WHERE rows > 0");
   while (sqlite3_step(st) == SQLITE_ROW) {
     int64_t pair = sqlite3_column_int64(st, 0);

@@ -32,14 +32,7 @@ std::vector<cv::DMatch> ratio_matches(const cv::Mat& a, const cv::Mat& b, double
 }  // namespace
 
 CorrespondenceSet correspondences_from_matching(const Scene& scene, const MatchOptions& o) {
-  CorrespondenceSet set;
-  set.scene = scene.root;
-  set.source = "match";
-  for (const auto& v : scene.views) {
-    set.view_names.push_back(v.name);
-    set.widths.push_back(v.camera.width);
-    set.heights.push_back(v.camera.height);
-  }
+  CorrespondenceSet set = empty_correspondences(scene, "match");
   std::vector<int> ids;  // views that take part, in name order
   if (o.training_views_only) {
     ids = scene.train_indices;
