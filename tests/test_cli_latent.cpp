@@ -1,0 +1,54 @@
+// The Stage II commands end to end through the CLI: train --space latent, render, eval, and refusals.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "lrf/core/run_info.h"
+#include "lrf/core/safetensors.h"
+#include "test_helpers.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+TEST(CliLatent, TrainRenderEval) {
+  lrf::test::TempDir tmp("cli_latent");
+  const std::string scene = lrf::test::synthetic_scene({8, "64x48", 3, 800});
+  const std::string out = tmp / "f";
+  auto train = lrf::test::run_lrf("--threads 2 train '" + scene + "' --space latent --autoencoder taef2 --iters 60 "
+                                  "--cache-dir '" + tmp.str() + "/cache' -o '" + out + "'");
+  ASSERT_EQ(train.exit_code, 0) << train.output;
+  auto config = lrf::read_json_file(out + "/config.json");
+  EXPECT_EQ(config["space"], "latent");
+  EXPECT_EQ(config["latent_channels"], 32);
+  EXPECT_EQ(config["sh_degree"], 0);
+  EXPECT_EQ(config["latent_range"]["min"].size(), 32u);
+
+  // A second run into the same folder is refused without --force or --resume.
+  auto again = lrf::test::run_lrf("train '" + scene + "' --space latent --iters 10 -o '" + out + "'");
+  EXPECT_EQ(again.exit_code, 1);
+  EXPECT_NE(again.output.find("--resume"), std::string::npos) << again.output;
+
+  auto render = lrf::test::run_lrf("render '" + out + "' --split test -o '" + tmp.str() + "/r'");
+  ASSERT_EQ(render.exit_code, 0) << render.output;
+  auto latent = lrf::read_safetensors(tmp / "r/view_000.safetensors");
+  ASSERT_TRUE(latent.contains("latent"));
+  EXPECT_EQ(latent["latent"].sizes(), (std::vector<int64_t>{32, 6, 8}));
+  EXPECT_TRUE(fs::exists(tmp / "r/view_000.png"));
+
+  auto eval = lrf::test::run_lrf("--quiet eval '" + out + "'");
+  ASSERT_EQ(eval.exit_code, 0) << eval.output;
+  auto m = nlohmann::json::parse(eval.output);
+  EXPECT_TRUE(m["lpips"].is_null());
+  EXPECT_GT(m["roundtrip_psnr"].get<double>(), m["psnr"].get<double>() - 1.0);
+  auto metrics = lrf::read_json_file(out + "/metrics.json");
+  for (const char* k : {"psnr", "ssim", "lpips", "lpips_reason", "roundtrip_psnr", "latent_psnr", "views", "render_fps",
+                        "decode_fps", "storage_mb", "train_seconds"}) {
+    EXPECT_TRUE(metrics.contains(k)) << k;
+  }
+  auto bad = lrf::test::run_lrf("eval '" + out + "' --scale 2");
+  EXPECT_EQ(bad.exit_code, 1);
+}
+
+}  // namespace
