@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "scene_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -18,8 +19,7 @@ struct TrainOptions {
   std::string scene;
   std::string space = "rgb";
   std::string out;
-  std::string images;
-  int downscale = 1;
+  lrf::SceneOptions scene_options;
   int64_t iters = 30000;
   int sh_degree = 3;
   bool mip = false;
@@ -27,7 +27,6 @@ struct TrainOptions {
   int64_t max_gaussians = 0;
   bool resume = false;
   bool force = false;
-  int test_every = 8;
   int64_t checkpoint_every = 1000;
   bool sparse_adam = false;
   bool white_background = false;
@@ -35,11 +34,45 @@ struct TrainOptions {
 
 nlohmann::json to_json(const TrainOptions& o) {
   return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
-          {"images", o.images},     {"downscale", o.downscale}, {"iters", o.iters},
+          {"images", o.scene_options.images_dir}, {"downscale", o.scene_options.downscale},
+          {"test_every", o.scene_options.test_every}, {"test_list", o.scene_options.test_list},
+          {"format", o.scene_options.format}, {"crop8", o.scene_options.crop_to_multiple_of_8}, {"iters", o.iters},
           {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
           {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
-          {"test_every", o.test_every}, {"checkpoint_every", o.checkpoint_every},
+          {"checkpoint_every", o.checkpoint_every},
           {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background}};
+}
+
+// --resume continues the run as it was started: every setting comes from OUT/config.json except the
+// ones given on this command line among --iters and --checkpoint-every.
+TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
+  const std::string path = (std::filesystem::path(given.out) / "config.json").string();
+  auto stored = lrf::read_json_file(path);
+  TrainOptions o = given;
+  try {
+    const auto& j = stored.at("options");
+    o.scene = j.at("scene").get<std::string>();
+    o.space = j.at("space").get<std::string>();
+    o.scene_options.images_dir = j.at("images").get<std::string>();
+    o.scene_options.downscale = j.at("downscale").get<int>();
+    o.scene_options.test_every = j.at("test_every").get<int>();
+    o.scene_options.test_list = j.at("test_list").get<std::string>();
+    o.scene_options.format = j.at("format").get<std::string>();
+    o.scene_options.crop_to_multiple_of_8 = j.at("crop8").get<bool>();
+    o.sh_degree = j.at("sh_degree").get<int>();
+    o.mip = j.at("mip").get<bool>();
+    o.seed = j.at("seed").get<uint64_t>();
+    o.max_gaussians = j.at("max_gaussians").get<int64_t>();
+    o.sparse_adam = j.at("sparse_adam").get<bool>();
+    o.white_background = j.at("white_background").get<bool>();
+    if (!iters_given) o.iters = j.at("iters").get<int64_t>();
+    if (!checkpoint_given) o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
+  } catch (const nlohmann::json::exception& e) {
+    lrf::fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
+  }
+  if (given.scene != o.scene)
+    lrf::log_warn("--resume: training on " + o.scene + " as recorded in " + path + " (not " + given.scene + ")");
+  return o;
 }
 
 int run_train(const TrainOptions& o) {
@@ -48,13 +81,10 @@ int run_train(const TrainOptions& o) {
   if (o.space != "rgb") fail("--space '" + o.space + "' is not available: this build trains 'rgb' fields");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
-  if (o.downscale < 1) fail("--downscale must be at least 1");
+  if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
   prepare_output_dir(o.out, o.force, o.resume);
 
-  SceneOptions so;
-  so.images_dir = o.images;
-  so.downscale = o.downscale;
-  so.test_every = o.test_every;
+  const SceneOptions& so = o.scene_options;
   Scene scene = load_scene(o.scene, so);
   if (scene.train_indices.empty()) fail(o.scene, "no training views");
   log_info("scene " + o.scene + " (" + scene.format + "): " + std::to_string(scene.train_indices.size()) +
@@ -114,25 +144,25 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("scene", o->scene, "Scene folder (COLMAP, LLFF or NeRF transforms.json)")->required();
   cmd->add_option("--space", o->space, "Feature space of the field: rgb")->capture_default_str();
   cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
-  auto* images = cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
-  cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")
-      ->capture_default_str()
-      ->excludes(images);
-  cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
+  lrf::cli::add_scene_options(cmd, &o->scene_options);
+  auto* iters = cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
   cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3)")->capture_default_str();
   cmd->add_flag("--mip", o->mip, "Mip-Splatting: 3D smoothing filter and 2D Mip filter");
   cmd->add_option("--seed", o->seed, "Random seed (view order, initialisation, splits)")->capture_default_str();
   cmd->add_option("--max-gaussians", o->max_gaussians, "Cap on the number of Gaussians (0 = none)")
       ->capture_default_str();
-  cmd->add_flag("--resume", o->resume, "Continue the run in the output folder from its last checkpoint");
+  cmd->add_flag("--resume", o->resume,
+                "Continue the run in the output folder from its last checkpoint, with its recorded settings "
+                "(--iters and --checkpoint-every may change)");
   cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
-  cmd->add_option("--test-every", o->test_every, "Hold out every N-th view (sorted by name) for testing")
-      ->capture_default_str();
-  cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
+  auto* checkpoint = cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
       ->capture_default_str();
   cmd->add_flag("--sparse-adam", o->sparse_adam, "Update only Gaussians visible in the step's view (faster)");
   cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
-  lrf::cli::on_run(cmd, [o] { return run_train(*o); });
+  lrf::cli::on_run(cmd, [o, iters, checkpoint] {
+    if (!o->resume) return run_train(*o);
+    return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0));
+  });
 });
 
 }  // namespace

@@ -209,6 +209,9 @@ void Trainer::load_checkpoint(const std::string& path) {
   auto params = g.parameters();
   for (size_t i = 0; i < params.size(); ++i) *params[i] = read("param." + names[i]);
   g.check(path);
+  if (g.max_sh_degree < options_.sh_degree)
+    fail(path, "checkpoint holds SH degree " + std::to_string(g.max_sh_degree) + ", this run trains degree " +
+                   std::to_string(options_.sh_degree));
   if (g.channels() != g_.channels()) fail(path, "checkpoint has " + std::to_string(g.channels()) +
                                                     " channels, the scene's targets have " +
                                                     std::to_string(g_.channels()));
