@@ -4,6 +4,14 @@
 // Pixel convention: the one of lrf::Camera. A mean projects to (fx·x/z + cx, fy·y/z + cy) and pixel (i, j)
 // is sampled at its centre (j + 0.5, i + 0.5). Inria's rasterizer maps NDC to pixels with a −0.5 shift and
 // samples at integer (j, i): for a centred principal point (cx = W/2) the two are the same numbers.
+//
+// The forward matches 3DGS. The backward is the exact derivative of that forward, which differs from
+// Inria's CUDA backward in two corner cases: where α is clamped at 0.99 it passes no gradient to the
+// opacity and shape (Inria's passes one through the clamp), and where x/z or y/z is clamped for the
+// Jacobian (splats far outside the view) the clamped ratio is held fixed. With an off-centre principal
+// point the Jacobian clamp is 1.3× each side's own extent (Inria's ±1.3·tan(fov/2) when centred).
+// CPU kernels: OpenMP over 16×16 tiles, SSE2 over 4 pixels of a row; see projection.h, binning.h,
+// raster_kernels.h and sh.h.
 #include <torch/torch.h>
 
 #include <Eigen/Core>

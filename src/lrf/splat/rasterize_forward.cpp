@@ -7,91 +7,137 @@
 namespace lrf::splat {
 namespace {
 
+// Tile-local state is indexed p = row·kTileSize + column whatever the tile's clipped width, so that groups
+// of 4 pixels never straddle two rows.
 constexpr int kTilePixels = kTileSize * kTileSize;
 
 // One tile. Splats are visited in depth order and each one only over the pixels of its α box, which gives
-// exactly the per-pixel front-to-back result (each pixel sees the same splats in the same order) at a
-// cost proportional to the splats' footprints rather than list length × 256.
+// exactly the per-pixel front-to-back result (each pixel sees the same splats in the same order) at a cost
+// proportional to the splats' footprints rather than list length × 256. Colour accumulators are
+// channel-major (acc[c·256 + p]) so that 4 neighbouring pixels update together.
 template <int kC>
-void forward_tile(int tile, const RasterInputs& in, const RasterForwardOutputs& out, float* acc) {
+void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out,
+                  float* acc) {
   const int C = kC > 0 ? kC : in.channels;
   const int x0 = (tile % in.tiles_x) * kTileSize, y0 = (tile / in.tiles_x) * kTileSize;
   const int x1 = std::min(x0 + kTileSize, in.width), y1 = std::min(y0 + kTileSize, in.height);
-  const int w = x1 - x0, npix = w * (y1 - y0);
-  float T[kTilePixels], acc_depth[kTilePixels];
-  int32_t last[kTilePixels];
-  bool done[kTilePixels];
-  std::fill(T, T + npix, 1.f);
-  std::fill(acc_depth, acc_depth + npix, 0.f);
-  std::fill(last, last + npix, -1);
-  std::fill(done, done + npix, false);
-  std::fill(acc, acc + npix * C, 0.f);
-  int remaining = npix;
+  alignas(16) float T[kTilePixels], acc_depth[kTilePixels];
+  alignas(16) int32_t last[kTilePixels], done[kTilePixels];  // done: all ones once the pixel is saturated
+  std::fill(T, T + kTilePixels, 1.f);
+  std::fill(acc_depth, acc_depth + kTilePixels, 0.f);
+  std::fill(last, last + kTilePixels, -1);
+  std::fill(done, done + kTilePixels, 0);
+  std::fill(acc, acc + kTilePixels * C, 0.f);
+  int remaining = (x1 - x0) * (y1 - y0);
 
   const int32_t begin = in.tile_offsets[tile], end = in.tile_offsets[tile + 1];
   for (int32_t k = begin; k < end && remaining > 0; ++k) {
     const int32_t g = in.tile_ids[k];
+    const int32_t pos = k - begin;
     const float gx = in.xy[2 * g], gy = in.xy[2 * g + 1];
     const PixelSpan span = splat_span(gx, gy, in.extent[2 * g], in.extent[2 * g + 1], x0, y0, x1, y1);
     if (span.empty()) continue;
     const float A = in.conic[3 * g], B = in.conic[3 * g + 1], Cc = in.conic[3 * g + 2];
     const float o = in.opacity[g], z = in.depth[g];
-    const float* col = in.colors + static_cast<int64_t>(g) * C;
+    const float* col = nullptr;  // evaluated when the splat is first blended
+    alignas(16) float row_alpha[kTileSize], row_gauss[kTileSize];
+    const int len = span.j1 - span.j0;
     for (int i = span.i0; i < span.i1; ++i) {
-      const float dy = gy - (i + 0.5f);
-      for (int j = span.j0; j < span.j1; ++j) {
-        const int p = (i - y0) * w + (j - x0);
-        if (done[p]) continue;
-        float alpha, gauss;
-        if (!splat_alpha(A, B, Cc, o, gx - (j + 0.5f), dy, &alpha, &gauss)) continue;
+      splat_alpha_row(A, B, Cc, o, gx - (span.j0 + 0.5f), gy - (i + 0.5f), len, row_alpha, row_gauss);
+      const int row = (i - y0) * kTileSize + (span.j0 - x0);
+#if defined(__SSE2__)
+      const __m128 one = _mm_set1_ps(1.f), min_T = _mm_set1_ps(kMinTransmittance), vz = _mm_set1_ps(z);
+      const __m128i vpos = _mm_set1_epi32(pos);
+      for (int q = 0; q < len; q += 4) {
+        const int p = row + q;
+        // Lanes past the span, already saturated, or skipped by α are neutral: α = 0 changes nothing.
+        const __m128i in_span = _mm_cmplt_epi32(_mm_add_epi32(_mm_set1_epi32(q), _mm_setr_epi32(0, 1, 2, 3)),
+                                                _mm_set1_epi32(len));
+        const __m128i dn = _mm_loadu_si128(reinterpret_cast<const __m128i*>(done + p));
+        const __m128 live = _mm_castsi128_ps(_mm_andnot_si128(dn, in_span));
+        const __m128 alpha = _mm_and_ps(_mm_loadu_ps(row_alpha + q), live);
+        const __m128 t = _mm_loadu_ps(T + p);
+        const __m128 next_T = _mm_mul_ps(t, _mm_sub_ps(one, alpha));
+        const __m128 hit = _mm_cmpneq_ps(alpha, _mm_setzero_ps());
+        const __m128 stop = _mm_and_ps(hit, _mm_cmplt_ps(next_T, min_T));
+        const int stop_bits = _mm_movemask_ps(stop);
+        if (stop_bits) {
+          _mm_storeu_si128(reinterpret_cast<__m128i*>(done + p), _mm_or_si128(dn, _mm_castps_si128(stop)));
+          remaining -= __builtin_popcount(stop_bits);
+        }
+        const __m128 blend = _mm_andnot_ps(stop, hit);
+        if (!_mm_movemask_ps(blend)) continue;
+        if (!col) col = source.get(g, C);
+        const __m128 a = _mm_and_ps(alpha, blend);
+        const __m128 weight = _mm_mul_ps(a, t);
+        for (int c = 0; c < C; ++c) {
+          float* dst = acc + c * kTilePixels + p;
+          _mm_storeu_ps(dst, _mm_add_ps(_mm_loadu_ps(dst), _mm_mul_ps(_mm_set1_ps(col[c]), weight)));
+        }
+        _mm_storeu_ps(acc_depth + p, _mm_add_ps(_mm_loadu_ps(acc_depth + p), _mm_mul_ps(vz, weight)));
+        // T·(1 − 0) = T on the other lanes, bit for bit.
+        _mm_storeu_ps(T + p, _mm_mul_ps(t, _mm_sub_ps(one, a)));
+        const __m128i bl = _mm_castps_si128(blend);
+        const __m128i old_last = _mm_loadu_si128(reinterpret_cast<const __m128i*>(last + p));
+        _mm_storeu_si128(reinterpret_cast<__m128i*>(last + p),
+                         _mm_or_si128(_mm_and_si128(bl, vpos), _mm_andnot_si128(bl, old_last)));
+      }
+#else
+      for (int q = 0; q < len; ++q) {
+        const float alpha = row_alpha[q];
+        const int p = row + q;
+        if (alpha == 0.f || done[p]) continue;
         const float next_T = T[p] * (1.f - alpha);
         if (next_T < kMinTransmittance) {
-          done[p] = true;
+          done[p] = -1;
           --remaining;
           continue;
         }
+        if (!col) col = source.get(g, C);
         const float weight = alpha * T[p];
-        float* a = acc + p * C;
-        for (int c = 0; c < C; ++c) a[c] += col[c] * weight;
+        for (int c = 0; c < C; ++c) acc[c * kTilePixels + p] += col[c] * weight;
         acc_depth[p] += z * weight;
         T[p] = next_T;
-        last[p] = k - begin;
+        last[p] = pos;
       }
+#endif
     }
   }
 
   const int64_t plane = static_cast<int64_t>(in.width) * in.height;
-  for (int p = 0; p < npix; ++p) {
-    const int64_t pix = static_cast<int64_t>(y0 + p / w) * in.width + x0 + p % w;
-    for (int c = 0; c < C; ++c) out.image[c * plane + pix] = acc[p * C + c] + T[p] * in.background[c];
-    out.alpha[pix] = 1.f - T[p];
-    out.depth[pix] = acc_depth[p];
-    out.t_final[pix] = T[p];
-    out.last[pix] = last[p];
-  }
+  for (int i = y0; i < y1; ++i)
+    for (int j = x0; j < x1; ++j) {
+      const int p = (i - y0) * kTileSize + (j - x0);
+      const int64_t pix = static_cast<int64_t>(i) * in.width + j;
+      for (int c = 0; c < C; ++c) out.image[c * plane + pix] = acc[c * kTilePixels + p] + T[p] * in.background[c];
+      out.alpha[pix] = 1.f - T[p];
+      out.depth[pix] = acc_depth[p];
+      out.t_final[pix] = T[p];
+      out.last[pix] = last[p];
+    }
 }
 
 template <int kC>
-void forward_impl(const RasterInputs& in, const RasterForwardOutputs& out) {
+void forward_impl(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out) {
   const int tiles = in.tiles_x * in.tiles_y;
 #pragma omp parallel
   {
     std::vector<float> acc(static_cast<size_t>(kTilePixels) * in.channels);
 #pragma omp for schedule(dynamic)
-    for (int t = 0; t < tiles; ++t) forward_tile<kC>(t, in, out, acc.data());
+    for (int t = 0; t < tiles; ++t) forward_tile<kC>(t, in, source, out, acc.data());
   }
 }
 
 }  // namespace
 
-void rasterize_forward(const RasterInputs& in, const RasterForwardOutputs& out) {
+void rasterize_forward(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out) {
   switch (in.channels) {
-    case 1: forward_impl<1>(in, out); break;
-    case 3: forward_impl<3>(in, out); break;
-    case 4: forward_impl<4>(in, out); break;
-    case 16: forward_impl<16>(in, out); break;
-    case 32: forward_impl<32>(in, out); break;
-    default: forward_impl<0>(in, out); break;
+    case 1: forward_impl<1>(in, source, out); break;
+    case 3: forward_impl<3>(in, source, out); break;
+    case 4: forward_impl<4>(in, source, out); break;
+    case 16: forward_impl<16>(in, source, out); break;
+    case 32: forward_impl<32>(in, source, out); break;
+    default: forward_impl<0>(in, source, out); break;
   }
 }
 

@@ -76,6 +76,18 @@ RasterInputs raster_inputs(const Viewpoint& v, int channels, const torch::Tensor
   return in;
 }
 
+struct ShContext {
+  int k_stored, channels, degree;
+  const float* sh;
+  const float* means;
+  const double* campos;
+};
+
+void evaluate_color(const void* ctx, int64_t g, float* out) {
+  const auto* c = static_cast<const ShContext*>(ctx);
+  sh_forward_one(g, c->k_stored, c->channels, c->degree, c->sh, c->means, c->campos, out);
+}
+
 class RenderFunction : public torch::autograd::Function<RenderFunction> {
  public:
   // means2d is a leaf created by render(): the forward writes the projected means into it and the backward
@@ -96,8 +108,10 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
                     {means2d.data_ptr<float>(), depth.data_ptr<float>(), conic.data_ptr<float>(),
                      opacity.data_ptr<float>(), extent.data_ptr<float>(), radii.data_ptr<int32_t>(),
                      rect.data_ptr<int32_t>()});
-    sh_forward(n, k_stored, C, s.sh_degree, sh.data_ptr<float>(), means.data_ptr<float>(), v.campos,
-               radii.data_ptr<int32_t>(), colors.data_ptr<float>());
+    // Colours are evaluated by the rasterizer when a splat is first blended (see ColorSource).
+    auto color_state = torch::zeros({n}, torch::kUInt8);
+    const ShContext sh_ctx{k_stored, C, s.sh_degree, sh.data_ptr<float>(), means.data_ptr<float>(), v.campos};
+    const ColorSource source{colors.data_ptr<float>(), color_state.data_ptr<uint8_t>(), &evaluate_color, &sh_ctx};
     TileBins bins = bin_gaussians(n, depth.data_ptr<float>(), rect.data_ptr<int32_t>(), v.tiles_x(), v.tiles_y());
     auto offsets = adopt(std::move(bins.offsets)), ids = adopt(std::move(bins.ids));
 
@@ -106,7 +120,7 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
     auto depth_img = torch::empty({1, H, W}, f32), t_final = torch::empty({H, W}, f32);
     auto last = torch::empty({H, W}, torch::kInt32);
     rasterize_forward(raster_inputs(v, C, means2d, conic, opacity, extent, depth, colors, background, offsets, ids),
-                      {image.data_ptr<float>(), alpha.data_ptr<float>(), depth_img.data_ptr<float>(),
+                      source, {image.data_ptr<float>(), alpha.data_ptr<float>(), depth_img.data_ptr<float>(),
                        t_final.data_ptr<float>(), last.data_ptr<int32_t>()});
 
     ctx->save_for_backward({means, log_scales, quats, opacity_logits, sh, means2d});
@@ -119,6 +133,7 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
     d["opacity"] = opacity;
     d["extent"] = extent;
     d["colors"] = colors;
+    d["color_state"] = color_state;
     d["radii"] = radii;
     d["offsets"] = offsets;
     d["ids"] = ids;
@@ -172,7 +187,7 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
                      d_logits.data_ptr<float>());
     sh_backward(n, k_stored, C, degree, sh.data_ptr<float>(), means.data_ptr<float>(), v.campos,
                 radii.data_ptr<int32_t>(), colors.data_ptr<float>(), d_colors.data_ptr<float>(),
-                d_sh.data_ptr<float>(), d_means.data_ptr<float>());
+                d_sh.data_ptr<float>(), d_means.data_ptr<float>(), d["color_state"].toTensor().data_ptr<uint8_t>());
     // Inria's densification statistic is d loss / d NDC: NDC spans 2 units over W (H) pixels.
     auto d_means2d = d_xy * torch::tensor({0.5f * W, 0.5f * H}, f32);
     return {d_means, d_log_scales, d_quats, d_logits, d_sh, d_means2d, {}, {}, {}};

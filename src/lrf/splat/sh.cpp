@@ -52,34 +52,39 @@ inline float view_direction(const float* mean, const double campos[3], float d[3
 }
 
 template <int kC>
+void color_of(int64_t i, int k_stored, int channels, int degree, const float* sh, const float* means,
+              const double campos[3], float* out) {
+  const int C = kC > 0 ? kC : channels;
+  const int K = (degree + 1) * (degree + 1);
+  float d[3], b[kMaxCoeffs];
+  view_direction(means + 3 * i, campos, d);
+  sh_basis(degree, d, b);
+  const float* coeffs = sh + i * k_stored * C;
+  for (int c = 0; c < C; ++c) out[c] = 0.5f;
+  for (int k = 0; k < K; ++k) {
+    const float* row = coeffs + k * C;
+    for (int c = 0; c < C; ++c) out[c] += b[k] * row[c];
+  }
+  for (int c = 0; c < C; ++c) out[c] = std::max(out[c], 0.f);
+}
+
+template <int kC>
 void forward_impl(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                   const double campos[3], const int32_t* radii, float* colors) {
   const int C = kC > 0 ? kC : channels;
-  const int K = (degree + 1) * (degree + 1);
 #pragma omp parallel for schedule(static)
   for (int64_t i = 0; i < n; ++i) {
-    float* out = colors + i * C;
-    if (radii[i] == 0) {
-      std::fill(out, out + C, 0.f);
-      continue;
-    }
-    float d[3], b[kMaxCoeffs];
-    view_direction(means + 3 * i, campos, d);
-    sh_basis(degree, d, b);
-    const float* coeffs = sh + i * k_stored * C;
-    for (int c = 0; c < C; ++c) out[c] = 0.5f;
-    for (int k = 0; k < K; ++k) {
-      const float* row = coeffs + k * C;
-      for (int c = 0; c < C; ++c) out[c] += b[k] * row[c];
-    }
-    for (int c = 0; c < C; ++c) out[c] = std::max(out[c], 0.f);
+    if (radii[i] == 0)
+      std::fill(colors + i * C, colors + (i + 1) * C, 0.f);
+    else
+      color_of<kC>(i, k_stored, channels, degree, sh, means, campos, colors + i * C);
   }
 }
 
 template <int kC>
 void backward_impl(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                    const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
-                   float* d_sh, float* d_means) {
+                   float* d_sh, float* d_means, const uint8_t* evaluated) {
   const int C = kC > 0 ? kC : channels;
   const int K = (degree + 1) * (degree + 1);
 #pragma omp parallel
@@ -90,7 +95,7 @@ void backward_impl(int64_t n, int k_stored, int channels, int degree, const floa
     for (int64_t i = 0; i < n; ++i) {
       float* dsh = d_sh + i * k_stored * C;
       std::fill(dsh, dsh + k_stored * C, 0.f);
-      if (radii[i] == 0) continue;
+      if (radii[i] == 0 || (evaluated && evaluated[i] != 2)) continue;
       // Colours clamped at 0 pass no gradient (3DGS); a stored colour > 0 means the clamp was inactive.
       const float* col = colors + i * C;
       const float* dcol = d_colors + i * C;
@@ -168,11 +173,16 @@ void sh_forward(int64_t n, int k_stored, int channels, int degree, const float* 
   LRF_SH_DISPATCH(forward_impl, n, k_stored, channels, degree, sh, means, campos, radii, colors)
 }
 
+void sh_forward_one(int64_t i, int k_stored, int channels, int degree, const float* sh, const float* means,
+                    const double campos[3], float* color) {
+  LRF_SH_DISPATCH(color_of, i, k_stored, channels, degree, sh, means, campos, color)
+}
+
 void sh_backward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                  const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
-                 float* d_sh, float* d_means) {
+                 float* d_sh, float* d_means, const uint8_t* evaluated) {
   LRF_SH_DISPATCH(backward_impl, n, k_stored, channels, degree, sh, means, campos, radii, colors, d_colors, d_sh,
-                  d_means)
+                  d_means, evaluated)
 }
 
 #undef LRF_SH_DISPATCH

@@ -13,10 +13,15 @@ void sh_basis(int degree, const float d[3], float* b);
 void sh_forward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                 const double campos[3], const int32_t* radii, float* colors);
 
+// The colour of Gaussian i alone, as sh_forward computes it (the rasterizer evaluates colours on first use).
+void sh_forward_one(int64_t i, int k_stored, int channels, int degree, const float* sh, const float* means,
+                    const double campos[3], float* color);
+
 // d_sh (overwritten, [N, k_stored, C]; zeros for inactive degrees and culled Gaussians) and d_means
-// (accumulated into: the projection writes its part first). The clamp at 0 passes no gradient.
+// (accumulated into: the projection writes its part first). The clamp at 0 passes no gradient. When
+// `evaluated` is given, only Gaussians with evaluated[i] == 2 have a colour (the others get zeros).
 void sh_backward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                  const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
-                 float* d_sh, float* d_means);
+                 float* d_sh, float* d_means, const uint8_t* evaluated = nullptr);
 
 }  // namespace lrf::splat
