@@ -121,7 +121,14 @@ StepResult Trainer::step() {
   r.timings.densify = ms_since(t0);
 
   t0 = Clock::now();
-  adam_.step(g_, active_sh_degree(), out.radii > 0);
+  torch::Tensor touched;
+  if (options_.sparse_adam) {
+    // Rows the rasterizer reached: every Gaussian that blended into a pixel has an opacity gradient.
+    // Visible but fully occluded Gaussians (most of a dense field in a small image) are skipped too.
+    auto og = g_.opacity_logits.grad();
+    touched = og.defined() ? (og.squeeze(1) != 0) & (out.radii > 0) : out.radii > 0;
+  }
+  adam_.step(g_, active_sh_degree(), touched);
   for (auto* p : g_.parameters()) p->mutable_grad() = torch::Tensor();
   r.timings.optimizer = ms_since(t0);
 
