@@ -131,7 +131,7 @@ void bench_case(const char* name, int width, int height, int64_t n, int C, int d
   std::vector<float> g_xy(2 * n), g_conic(3 * n), g_op(n), g_z(n), g_col(n * C);
   const double t_bwd = median_ms(reps, [&] {
     rasterize_backward(n, in, {tfinal.data(), last.data(), d_image.data(), nullptr, nullptr},
-                       {g_xy.data(), g_conic.data(), g_op.data(), g_z.data(), g_col.data()});
+                       {g_xy.data(), g_conic.data(), g_op.data(), g_z.data(), g_col.data(), true});
   });
   std::vector<float> d_means(3 * n), d_ls(3 * n), d_q(4 * n), d_lo(n), d_sh(n * K * C);
   const double t_proj_b = median_ms(reps, [&] {

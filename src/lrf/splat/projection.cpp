@@ -140,6 +140,10 @@ void project_forward(int64_t n, const float* means, const float* log_scales, con
     const real u = v.fx * g.p[0] / z + v.cx, w = v.fy * g.p[1] / z + v.cy;
     const real mid = 0.5f * (g.a + g.c);
     const real lambda = mid + std::sqrt(std::max(kMinDiscriminant, mid * mid - g.det));
+    // Splats projecting 1e7 px away or 1e7 px wide would overflow the int arithmetic below: they are culled
+    // (the first kind is off-screen anyway; the second is a degenerate, uniform veil).
+    constexpr real kBound = 1e7f;
+    if (!(std::abs(u) < kBound && std::abs(w) < kBound && lambda < kBound * kBound)) continue;
     const int radius = static_cast<int>(std::ceil(3.0f * std::sqrt(lambda)));
     // Inria's tile rectangle, written in its pixel coordinates (ours − 0.5) so that it bins identically.
     const real px = u - 0.5f, py = w - 0.5f;

@@ -9,6 +9,9 @@ namespace lrf::splat {
 namespace {
 
 constexpr int kTilePixels = kTileSize * kTileSize;
+// Per-pixel arrays get 4 spare floats: a group of 4 lanes starting at the last pixels of a row may reach up
+// to 3 past the tile (those lanes are masked, but they are loaded and stored back unchanged).
+constexpr int kTileStorage = kTilePixels + 4;
 constexpr int kGeomGrads = 7;  // d xy (2), d conic (3), d opacity, d depth
 
 // Where one thread accumulates: per-Gaussian geometry gradients [N,7] and colour gradients [N,C]. A slot
@@ -35,13 +38,13 @@ inline float hsum(__m128 v) {
 
 // Per-pixel state of one tile, indexed p = row·kTileSize + column (as in the forward).
 struct TileState {
-  alignas(16) float T[kTilePixels];     // transmittance in front of the splat being processed
-  alignas(16) float RG[kTilePixels];    // R·g: upstream-weighted colour of the splats behind it
-  alignas(16) float RD[kTilePixels];    // the same for depth
-  alignas(16) float bgT[kTilePixels];   // T_final·(bg·g)
-  alignas(16) float gaT[kTilePixels];   // T_final·(d loss / d alpha)
-  alignas(16) float gd[kTilePixels];    // d loss / d depth
-  alignas(16) int32_t last[kTilePixels];
+  alignas(16) float T[kTileStorage];     // transmittance in front of the splat being processed
+  alignas(16) float RG[kTileStorage];    // R·g: upstream-weighted colour of the splats behind it
+  alignas(16) float RD[kTileStorage];    // the same for depth
+  alignas(16) float bgT[kTileStorage];   // T_final·(bg·g)
+  alignas(16) float gaT[kTileStorage];   // T_final·(d loss / d alpha)
+  alignas(16) float gd[kTileStorage];    // d loss / d depth
+  alignas(16) int32_t last[kTileStorage];
 };
 
 template <int kC>
@@ -53,14 +56,14 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
   const int64_t plane = static_cast<int64_t>(in.width) * in.height;
   TileState st;
   // Pixels outside the image stay neutral: never live (last = −1), zero gradients.
-  std::fill(st.T, st.T + kTilePixels, 1.f);
-  std::fill(st.RG, st.RG + kTilePixels, 0.f);
-  std::fill(st.RD, st.RD + kTilePixels, 0.f);
-  std::fill(st.bgT, st.bgT + kTilePixels, 0.f);
-  std::fill(st.gaT, st.gaT + kTilePixels, 0.f);
-  std::fill(st.gd, st.gd + kTilePixels, 0.f);
-  std::fill(st.last, st.last + kTilePixels, -1);
-  std::fill(grad_pixels, grad_pixels + kTilePixels * C, 0.f);  // channel-major, [c·256 + p]
+  std::fill(st.T, st.T + kTileStorage, 1.f);
+  std::fill(st.RG, st.RG + kTileStorage, 0.f);
+  std::fill(st.RD, st.RD + kTileStorage, 0.f);
+  std::fill(st.bgT, st.bgT + kTileStorage, 0.f);
+  std::fill(st.gaT, st.gaT + kTileStorage, 0.f);
+  std::fill(st.gd, st.gd + kTileStorage, 0.f);
+  std::fill(st.last, st.last + kTileStorage, -1);
+  std::fill(grad_pixels, grad_pixels + kTileStorage * C, 0.f);  // channel-major, [c·256 + p]
   int32_t max_last = -1;
   for (int i = y0; i < y1; ++i)
     for (int j = x0; j < x1; ++j) {
@@ -71,7 +74,7 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
       float dot = 0;
       for (int c = 0; c < C; ++c) {
         const float g = bin.d_image[c * plane + pix];
-        grad_pixels[c * kTilePixels + p] = g;
+        grad_pixels[c * kTileStorage + p] = g;
         dot += g * in.background[c];
       }
       st.bgT[p] = tf * dot;
@@ -85,6 +88,7 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
   for (int32_t k = begin + max_last; k >= begin; --k) {
     const int32_t g = in.tile_ids[k];
     const int32_t pos = k - begin;
+    if (k - kPrefetchDistance >= begin) prefetch_splat(in, in.tile_ids[k - kPrefetchDistance]);
     const float gx = in.xy[2 * g], gy = in.xy[2 * g + 1];
     const PixelSpan span = splat_span(gx, gy, in.extent[2 * g], in.extent[2 * g + 1], x0, y0, x1, y1);
     if (span.empty()) continue;
@@ -127,7 +131,7 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
         const __m128 weight = _mm_mul_ps(alpha, Ti);
         __m128 cg = _mm_setzero_ps();
         for (int c = 0; c < C; ++c) {
-          const __m128 gp = _mm_loadu_ps(grad_pixels + c * kTilePixels + p);
+          const __m128 gp = _mm_loadu_ps(grad_pixels + c * kTileStorage + p);
           cg = _mm_add_ps(cg, _mm_mul_ps(_mm_set1_ps(col[c]), gp));
           dcolv[c] = _mm_add_ps(dcolv[c], _mm_mul_ps(weight, gp));
         }
@@ -178,7 +182,7 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
         const float weight = alpha * Ti;
         float cg = 0;
         for (int c = 0; c < C; ++c) {
-          const float gp = grad_pixels[c * kTilePixels + p];
+          const float gp = grad_pixels[c * kTileStorage + p];
           cg += col[c] * gp;
           dcol[c] += weight * gp;
         }
@@ -237,7 +241,7 @@ void backward_impl(int64_t n, const RasterInputs& in, const RasterBackwardInputs
     GradBuffer buf{scratch[t].geom.data(), scratch[t].colors.data(), scratch[t].touched.data()};
     // Scratch: the tile's upstream gradient (channel-major) and 4C + C floats of colour accumulators,
     // 16-byte aligned for the SIMD lanes.
-    std::vector<float> grad_pixels(static_cast<size_t>(kTilePixels) * C), dcol_buf(5 * C + 4);
+    std::vector<float> grad_pixels(static_cast<size_t>(kTileStorage) * C), dcol_buf(5 * C + 4);
     float* dcol = dcol_buf.data();
     while (reinterpret_cast<uintptr_t>(dcol) % 16) ++dcol;
 #pragma omp for schedule(dynamic)
@@ -247,14 +251,16 @@ void backward_impl(int64_t n, const RasterInputs& in, const RasterBackwardInputs
   for (int64_t i = 0; i < n; ++i) {
     float sum[kGeomGrads] = {0, 0, 0, 0, 0, 0, 0};
     float* dc = out.colors + i * C;
-    std::fill(dc, dc + C, 0.f);
+    bool first = true;
     for (int t = 0; t < threads; ++t) {
       if (!scratch[t].touched[i]) continue;
       const float* geom = scratch[t].geom.data() + i * kGeomGrads;
       const float* col = scratch[t].colors.data() + i * C;
       for (int k = 0; k < kGeomGrads; ++k) sum[k] += geom[k];
-      for (int c = 0; c < C; ++c) dc[c] += col[c];
+      for (int c = 0; c < C; ++c) dc[c] = first ? col[c] : dc[c] + col[c];
+      first = false;
     }
+    if (first && !out.colors_only_touched) std::fill(dc, dc + C, 0.f);
     out.xy[2 * i] = sum[0];
     out.xy[2 * i + 1] = sum[1];
     out.conic[3 * i] = sum[2];

@@ -10,6 +10,9 @@ namespace {
 // Tile-local state is indexed p = row·kTileSize + column whatever the tile's clipped width, so that groups
 // of 4 pixels never straddle two rows.
 constexpr int kTilePixels = kTileSize * kTileSize;
+// Per-pixel arrays get 4 spare floats: a group of 4 lanes starting at the last pixels of a row may reach up
+// to 3 past the tile (those lanes are masked, but they are loaded and stored back unchanged).
+constexpr int kTileStorage = kTilePixels + 4;
 
 // One tile. Splats are visited in depth order and each one only over the pixels of its α box, which gives
 // exactly the per-pixel front-to-back result (each pixel sees the same splats in the same order) at a cost
@@ -21,19 +24,20 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
   const int C = kC > 0 ? kC : in.channels;
   const int x0 = (tile % in.tiles_x) * kTileSize, y0 = (tile / in.tiles_x) * kTileSize;
   const int x1 = std::min(x0 + kTileSize, in.width), y1 = std::min(y0 + kTileSize, in.height);
-  alignas(16) float T[kTilePixels], acc_depth[kTilePixels];
-  alignas(16) int32_t last[kTilePixels], done[kTilePixels];  // done: all ones once the pixel is saturated
-  std::fill(T, T + kTilePixels, 1.f);
-  std::fill(acc_depth, acc_depth + kTilePixels, 0.f);
-  std::fill(last, last + kTilePixels, -1);
-  std::fill(done, done + kTilePixels, 0);
-  std::fill(acc, acc + kTilePixels * C, 0.f);
+  alignas(16) float T[kTileStorage], acc_depth[kTileStorage];
+  alignas(16) int32_t last[kTileStorage], done[kTileStorage];  // done: all ones once the pixel is saturated
+  std::fill(T, T + kTileStorage, 1.f);
+  std::fill(acc_depth, acc_depth + kTileStorage, 0.f);
+  std::fill(last, last + kTileStorage, -1);
+  std::fill(done, done + kTileStorage, 0);
+  std::fill(acc, acc + kTileStorage * C, 0.f);
   int remaining = (x1 - x0) * (y1 - y0);
 
   const int32_t begin = in.tile_offsets[tile], end = in.tile_offsets[tile + 1];
   for (int32_t k = begin; k < end && remaining > 0; ++k) {
     const int32_t g = in.tile_ids[k];
     const int32_t pos = k - begin;
+    if (k + kPrefetchDistance < end) prefetch_splat(in, in.tile_ids[k + kPrefetchDistance]);
     const float gx = in.xy[2 * g], gy = in.xy[2 * g + 1];
     const PixelSpan span = splat_span(gx, gy, in.extent[2 * g], in.extent[2 * g + 1], x0, y0, x1, y1);
     if (span.empty()) continue;
@@ -71,7 +75,7 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
         const __m128 a = _mm_and_ps(alpha, blend);
         const __m128 weight = _mm_mul_ps(a, t);
         for (int c = 0; c < C; ++c) {
-          float* dst = acc + c * kTilePixels + p;
+          float* dst = acc + c * kTileStorage + p;
           _mm_storeu_ps(dst, _mm_add_ps(_mm_loadu_ps(dst), _mm_mul_ps(_mm_set1_ps(col[c]), weight)));
         }
         _mm_storeu_ps(acc_depth + p, _mm_add_ps(_mm_loadu_ps(acc_depth + p), _mm_mul_ps(vz, weight)));
@@ -95,7 +99,7 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
         }
         if (!col) col = source.get(g, C);
         const float weight = alpha * T[p];
-        for (int c = 0; c < C; ++c) acc[c * kTilePixels + p] += col[c] * weight;
+        for (int c = 0; c < C; ++c) acc[c * kTileStorage + p] += col[c] * weight;
         acc_depth[p] += z * weight;
         T[p] = next_T;
         last[p] = pos;
@@ -109,7 +113,7 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
     for (int j = x0; j < x1; ++j) {
       const int p = (i - y0) * kTileSize + (j - x0);
       const int64_t pix = static_cast<int64_t>(i) * in.width + j;
-      for (int c = 0; c < C; ++c) out.image[c * plane + pix] = acc[c * kTilePixels + p] + T[p] * in.background[c];
+      for (int c = 0; c < C; ++c) out.image[c * plane + pix] = acc[c * kTileStorage + p] + T[p] * in.background[c];
       out.alpha[pix] = 1.f - T[p];
       out.depth[pix] = acc_depth[p];
       out.t_final[pix] = T[p];
@@ -122,7 +126,7 @@ void forward_impl(const RasterInputs& in, const ColorSource& source, const Raste
   const int tiles = in.tiles_x * in.tiles_y;
 #pragma omp parallel
   {
-    std::vector<float> acc(static_cast<size_t>(kTilePixels) * in.channels);
+    std::vector<float> acc(static_cast<size_t>(kTileStorage) * in.channels);
 #pragma omp for schedule(dynamic)
     for (int t = 0; t < tiles; ++t) forward_tile<kC>(t, in, source, out, acc.data());
   }

@@ -174,7 +174,7 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
                         d_image.data_ptr<float>(), d_alpha.defined() ? d_alpha.data_ptr<float>() : nullptr,
                         d_depth.defined() ? d_depth.data_ptr<float>() : nullptr},
                        {d_xy.data_ptr<float>(), d_conic.data_ptr<float>(), d_opacity.data_ptr<float>(),
-                        d_z.data_ptr<float>(), d_colors.data_ptr<float>()});
+                        d_z.data_ptr<float>(), d_colors.data_ptr<float>(), /*colors_only_touched=*/true});
 
     auto d_means = torch::empty({n, 3}, f32), d_log_scales = torch::empty({n, 3}, f32);
     auto d_quats = torch::empty({n, 4}, f32), d_logits = torch::empty({n, 1}, f32);
