@@ -65,7 +65,7 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   auto metrics = lrf::read_json_file(out + "/metrics.json");
   EXPECT_EQ(metrics["views"].size(), 2u);  // views 0 and 8 of 12
   // Measured on this scene: the SfM-initialised field before training scores 11.4 dB on the test views,
-  // 300 steps capped at 15k Gaussians 19.2 dB (600 uncapped steps: 17.8 dB, it overfits 10 views).
+  // 300 steps capped at 15k Gaussians 18.4-19.2 dB (schedule and thread-count variations).
   std::printf("synthetic 64x48, 300 steps: test PSNR %.2f dB, SSIM %.3f\n", metrics["psnr"].get<double>(),
               metrics["ssim"].get<double>());
   EXPECT_GT(metrics["psnr"].get<double>(), 16.0) << metrics.dump();
