@@ -157,7 +157,7 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
   auto* checkpoint = cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
       ->capture_default_str();
-  cmd->add_flag("--sparse-adam", o->sparse_adam, "Update only Gaussians visible in the step's view (faster)");
+  cmd->add_flag("--sparse-adam", o->sparse_adam, "Skip the Adam update of Gaussians no pixel reached this step (faster; Inria uses a dense Adam)");
   cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
   lrf::cli::on_run(cmd, [o, iters, checkpoint] {
     if (!o->resume) return run_train(*o);
