@@ -4,7 +4,9 @@
 //
 // Phases: render (projection + binning/sort + SH + forward compositing, inside the rasterizer), loss
 // (L1 + SSIM forward), backward (loss and rasterizer backward), optimizer (fused Adam), densify
-// (statistics every step; one clone/split/prune, reported separately per call).
+// (statistics every step; one clone/split/prune, reported separately per call). Rows "(a)sp" use the
+// sparse Adam (rows no pixel reached are skipped). The rasterizer's own stages (projection, SH,
+// binning/sort, forward, backward) are timed by bench_rasterizer.
 //
 // usage: bench_train [--quick] [--case a|b|all] [--iters N]
 #include <algorithm>
@@ -67,7 +69,7 @@ struct Row {
   double densify_call = 0;
 };
 
-Row run_case(int w, int h, int channels, int64_t n, int degree, int iters) {
+Row run_case(int w, int h, int channels, int64_t n, int degree, int iters, bool sparse = false) {
   const int views = 8;
   std::vector<TrainView> train;
   for (int i = 0; i < views; ++i) {
@@ -81,6 +83,7 @@ Row run_case(int w, int h, int channels, int64_t n, int degree, int iters) {
   o.schedule.until = 1000000;
   o.schedule.sh_degree_every = 1;  // the full degree from the first step
   o.psnr_every = 0;
+  o.sparse_adam = sparse;
   const double fov_x = 2 * std::atan(w / (2 * 0.8 * w)), fov_y = 2 * std::atan(h / (2 * 0.8 * w));
   Trainer trainer(train, field(n, channels, degree, fov_x, fov_y), 4.0, o);
   for (int i = 0; i < 3; ++i) trainer.step();  // warm-up
@@ -114,10 +117,10 @@ Row run_case(int w, int h, int channels, int64_t n, int degree, int iters) {
   return row;
 }
 
-void print(const char* name, int w, int h, int c, int64_t n, int degree, int threads, const Row& r) {
-  std::printf("%-4s %4dx%-4d C=%-2d N=%-7lld SH=%d thr=%d | %8.2f ms/iter | render %7.2f  loss %6.2f  backward %7.2f"
+void print(const std::string& name, int w, int h, int c, int64_t n, int degree, int threads, const Row& r) {
+  std::printf("%-5s %4dx%-4d C=%-2d N=%-7lld SH=%d thr=%d | %8.2f ms/iter | render %7.2f  loss %6.2f  backward %7.2f"
               "  adam %6.2f  dens-stats %5.2f | densify call %7.1f ms | VmHWM %ld MB\n",
-              name, w, h, c, static_cast<long long>(n), degree, threads, r.total, r.t.render, r.t.loss, r.t.backward,
+              name.c_str(), w, h, c, static_cast<long long>(n), degree, threads, r.total, r.t.render, r.t.loss, r.t.backward,
               r.t.optimizer, r.t.densify, r.densify_call, vm_hwm_kb() / 1024);
   std::fflush(stdout);
 }
@@ -141,7 +144,10 @@ int main(int argc, char** argv) {
     if (quick && threads == 1) continue;
     lrf::set_thread_count(threads);
     if (which == "a" || which == "all")
-      for (int degree : {0, 1, 3}) print("(a)", 63, 47, 32, 50000, degree, threads, run_case(63, 47, 32, 50000, degree, iters));
+      for (int degree : {0, 1, 3}) {
+        print("(a)", 63, 47, 32, 50000, degree, threads, run_case(63, 47, 32, 50000, degree, iters));
+        print("(a)sp", 63, 47, 32, 50000, degree, threads, run_case(63, 47, 32, 50000, degree, iters, true));
+      }
     if (which == "b" || which == "all")
       for (int64_t n : {100000LL, 300000LL}) {
         if (quick && n > 100000) continue;

@@ -136,8 +136,14 @@ TEST(DensifySchedule, InriaAt30kAndCompressedBelow) {
   EXPECT_EQ(s.opacity_reset_every, 3000);
   auto t = DensifySchedule::for_iterations(7000);
   EXPECT_EQ(t.until, 3500);
-  EXPECT_EQ(t.opacity_reset_every, 700);
-  EXPECT_EQ(t.interval, 23);
+  EXPECT_EQ(t.opacity_reset_every, 3000);
+  EXPECT_EQ(t.interval, 100);
+  EXPECT_EQ(t.from, 500);
+  auto u = DensifySchedule::for_iterations(700);
+  EXPECT_EQ(u.until, 350);
+  EXPECT_EQ(u.from, 50);
+  EXPECT_EQ(u.interval, 10);
+  EXPECT_EQ(u.sh_degree_every, 100);
   EXPECT_FALSE(s.densify_at(500));
   EXPECT_TRUE(s.densify_at(600));
   EXPECT_FALSE(s.densify_at(15000));

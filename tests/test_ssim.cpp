@@ -6,6 +6,7 @@
 #include <torch/torch.h>
 
 #include "lrf/splat/loss.h"
+#include "lrf/splat/ssim_fused.h"
 
 namespace {
 
@@ -87,4 +88,20 @@ TEST(Psnr, KnownValue) {
   EXPECT_NEAR(lrf::splat::psnr(a, b), 20.0, 1e-4);
   // Values outside [0, 1] are clamped first.
   EXPECT_NEAR(lrf::splat::psnr(a - 5, b), 20.0, 1e-4);
+}
+
+TEST(Ssim, FusedKernelMatchesReferenceValueAndGradient) {
+  torch::manual_seed(9);
+  for (int c : {1, 3, 32}) {
+    auto a = torch::rand({c, 19, 23});
+    auto b = (a + 0.3 * torch::randn({c, 19, 23})).clamp(0, 1);
+    EXPECT_NEAR(lrf::splat::fused_ssim(a, b).item<double>(), reference_ssim(a, b), 2e-5) << c;
+    // Gradient against the ATen formula (autograd) in float64.
+    auto a64 = a.to(torch::kFloat64).set_requires_grad(true);
+    lrf::splat::ssim(a64, b.to(torch::kFloat64)).backward();
+    auto a32 = a.clone().set_requires_grad(true);
+    lrf::splat::fused_ssim(a32, b).backward();
+    const double scale = a64.grad().abs().max().item<double>();
+    EXPECT_LT((a32.grad().to(torch::kFloat64) - a64.grad()).abs().max().item<double>(), 1e-4 * scale) << c;
+  }
 }

@@ -92,10 +92,11 @@ TEST(Trainer, ShortFitReachesPsnrBoundOnHeldOutViews) {
     const double before = test_psnr(trainer, scene);
     while (!trainer.done()) trainer.step();
     const double after = test_psnr(trainer, scene);
-    // Measured: ~12 dB at the start, 25+ dB after 400 steps; with a wrong gradient sign or scale the
-    // fit does not get near 20 dB.
-    EXPECT_GT(after, 20.0) << "C=" << channels << " start " << before;
-    EXPECT_GT(after, before + 6.0);
+    std::printf("short fit C=%d: held-out PSNR %.2f dB -> %.2f dB\n", channels, before, after);
+    // Measured: 14.0 dB (C=3) / 13.7 dB (C=4) at the start, 36.1 / 36.5 dB after 400 steps. A
+    // rasterizer that returned NaN gradients for a few Gaussians reached only 19-21 dB here.
+    EXPECT_GT(after, 28.0) << "C=" << channels << " start " << before;
+    EXPECT_GT(after, before + 12.0);
   }
 }
 

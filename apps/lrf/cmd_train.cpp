@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "scene_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -19,8 +20,7 @@ struct TrainOptions {
   std::string scene;
   std::string space = "rgb";
   std::string out;
-  std::string images;
-  int downscale = 1;
+  lrf::SceneOptions scene_options;
   int64_t iters = 30000;
   int sh_degree = 3;
   bool sh_degree_set = false;
@@ -29,7 +29,6 @@ struct TrainOptions {
   int64_t max_gaussians = 0;
   bool resume = false;
   bool force = false;
-  int test_every = 8;
   int64_t checkpoint_every = 1000;
   bool sparse_adam = false;
   bool white_background = false;
@@ -44,13 +43,16 @@ int run_train_latent(const TrainOptions& o) {
   lrf::LatentTrainOptions l;
   l.scene = o.scene;
   l.out = o.out;
-  l.images = o.images;
+  l.images = o.scene_options.images_dir;
   l.autoencoder = o.autoencoder;
   l.encoder = o.encoder;
   l.init = o.init;
   l.cache_dir = o.cache_dir;
-  l.downscale = o.downscale;
-  l.test_every = o.test_every;
+  l.downscale = o.scene_options.downscale;
+  l.test_every = o.scene_options.test_every;
+  if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
+    lrf::fail("--test-list, --crop8 and --format are not available with --space latent yet (latent views are always "
+              "cropped to multiples of 8)");
   l.sh_degree = o.sh_degree_set ? o.sh_degree : lrf::kDefaultLatentShDegree;
   l.iters = o.iters;
   l.max_gaussians = o.max_gaussians;
@@ -66,11 +68,45 @@ int run_train_latent(const TrainOptions& o) {
 
 nlohmann::json to_json(const TrainOptions& o) {
   return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
-          {"images", o.images},     {"downscale", o.downscale}, {"iters", o.iters},
+          {"images", o.scene_options.images_dir}, {"downscale", o.scene_options.downscale},
+          {"test_every", o.scene_options.test_every}, {"test_list", o.scene_options.test_list},
+          {"format", o.scene_options.format}, {"crop8", o.scene_options.crop_to_multiple_of_8}, {"iters", o.iters},
           {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
           {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
-          {"test_every", o.test_every}, {"checkpoint_every", o.checkpoint_every},
+          {"checkpoint_every", o.checkpoint_every},
           {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background}};
+}
+
+// --resume continues the run as it was started: every setting comes from OUT/config.json except the
+// ones given on this command line among --iters and --checkpoint-every.
+TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
+  const std::string path = (std::filesystem::path(given.out) / "config.json").string();
+  auto stored = lrf::read_json_file(path);
+  TrainOptions o = given;
+  try {
+    const auto& j = stored.at("options");
+    o.scene = j.at("scene").get<std::string>();
+    o.space = j.at("space").get<std::string>();
+    o.scene_options.images_dir = j.at("images").get<std::string>();
+    o.scene_options.downscale = j.at("downscale").get<int>();
+    o.scene_options.test_every = j.at("test_every").get<int>();
+    o.scene_options.test_list = j.at("test_list").get<std::string>();
+    o.scene_options.format = j.at("format").get<std::string>();
+    o.scene_options.crop_to_multiple_of_8 = j.at("crop8").get<bool>();
+    o.sh_degree = j.at("sh_degree").get<int>();
+    o.mip = j.at("mip").get<bool>();
+    o.seed = j.at("seed").get<uint64_t>();
+    o.max_gaussians = j.at("max_gaussians").get<int64_t>();
+    o.sparse_adam = j.at("sparse_adam").get<bool>();
+    o.white_background = j.at("white_background").get<bool>();
+    if (!iters_given) o.iters = j.at("iters").get<int64_t>();
+    if (!checkpoint_given) o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
+  } catch (const nlohmann::json::exception& e) {
+    lrf::fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
+  }
+  if (given.scene != o.scene)
+    lrf::log_warn("--resume: training on " + o.scene + " as recorded in " + path + " (not " + given.scene + ")");
+  return o;
 }
 
 int run_train(const TrainOptions& o) {
@@ -80,13 +116,10 @@ int run_train(const TrainOptions& o) {
   if (o.space != "rgb") fail("--space must be rgb or latent, got '" + o.space + "'");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
-  if (o.downscale < 1) fail("--downscale must be at least 1");
+  if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
   prepare_output_dir(o.out, o.force, o.resume);
 
-  SceneOptions so;
-  so.images_dir = o.images;
-  so.downscale = o.downscale;
-  so.test_every = o.test_every;
+  const SceneOptions& so = o.scene_options;
   Scene scene = load_scene(o.scene, so);
   if (scene.train_indices.empty()) fail(o.scene, "no training views");
   log_info("scene " + o.scene + " (" + scene.format + "): " + std::to_string(scene.train_indices.size()) +
@@ -160,11 +193,8 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("--cache-dir", o->cache_dir, "latent: where encoded views are cached (default $LRF_CACHE or "
                                                "~/.cache/lrf)");
   cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
-  auto* images = cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
-  cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")
-      ->capture_default_str()
-      ->excludes(images);
-  cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
+  lrf::cli::add_scene_options(cmd, &o->scene_options);
+  auto* iters = cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
   cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3; default 3 for rgb, " +
                                                    std::to_string(lrf::kDefaultLatentShDegree) + " for latent)")
       ->each([o](const std::string&) { o->sh_degree_set = true; });
@@ -172,15 +202,19 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("--seed", o->seed, "Random seed (view order, initialisation, splits)")->capture_default_str();
   cmd->add_option("--max-gaussians", o->max_gaussians, "Cap on the number of Gaussians (0 = none)")
       ->capture_default_str();
-  cmd->add_flag("--resume", o->resume, "Continue the run in the output folder from its last checkpoint");
+  cmd->add_flag("--resume", o->resume,
+                "Continue the run in the output folder from its last checkpoint, with its recorded settings "
+                "(--iters and --checkpoint-every may change)");
   cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
-  cmd->add_option("--test-every", o->test_every, "Hold out every N-th view (sorted by name) for testing")
+  auto* checkpoint = cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
       ->capture_default_str();
-  cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
-      ->capture_default_str();
-  cmd->add_flag("--sparse-adam", o->sparse_adam, "Update only Gaussians visible in the step's view (faster)");
+  cmd->add_flag("--sparse-adam", o->sparse_adam, "Skip the Adam update of Gaussians no pixel reached this step (faster; Inria uses a dense Adam)");
   cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
-  lrf::cli::on_run(cmd, [o] { return run_train(*o); });
+  lrf::cli::on_run(cmd, [o, iters, checkpoint] {
+    if (o->space == "latent") return run_train_latent(*o);  // resumes with the options given
+    if (!o->resume) return run_train(*o);
+    return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0));
+  });
 });
 
 }  // namespace

@@ -10,11 +10,12 @@ namespace lrf::splat {
 
 DensifySchedule DensifySchedule::for_iterations(int64_t iterations) {
   DensifySchedule s;
-  if (iterations >= 30000) return s;
-  const double k = double(std::max<int64_t>(iterations, 1)) / 30000.0;
+  iterations = std::max<int64_t>(iterations, 1);
+  s.until = std::min<int64_t>(15000, iterations / 2);
+  if (iterations >= 7000) return s;
+  const double k = double(iterations) / 7000.0;
   auto scaled = [k](double v, int64_t floor) { return std::max<int64_t>(floor, std::llround(v * k)); };
   s.from = scaled(500, 0);
-  s.until = scaled(15000, 1);
   // Statistics need a few views per densification: never densify more often than every 10 steps.
   s.interval = scaled(100, 10);
   s.opacity_reset_every = scaled(3000, 1);
@@ -32,18 +33,6 @@ torch::Tensor quaternion_to_matrix(const torch::Tensor& quats) {
   return r.view({-1, 3, 3});
 }
 
-void append_gaussians(Gaussians& g, const Gaussians& extra) {
-  auto dst = g.parameters();
-  auto src = extra.parameters();
-  for (size_t i = 0; i < dst.size(); ++i) *dst[i] = torch::cat({dst[i]->detach(), src[i]->detach()}, 0);
-  g.make_leaves();
-}
-
-void select_gaussians(Gaussians& g, const torch::Tensor& index) {
-  for (auto* p : g.parameters()) *p = p->detach().index_select(0, index);
-  g.make_leaves();
-}
-
 void Densifier::resize(int64_t n) {
   grad_accum = torch::zeros({n}, torch::kFloat32);
   denom = torch::zeros({n}, torch::kFloat32);
@@ -56,11 +45,6 @@ void Densifier::accumulate(const torch::Tensor& means2d_grad, const torch::Tenso
   grad_accum.add_(torch::where(visible, norm, torch::zeros_like(norm)));
   denom.add_(visible.to(torch::kFloat32));
   max_radii.copy_(torch::where(visible, torch::maximum(max_radii, radii.to(torch::kFloat32)), max_radii));
-}
-
-void Densifier::select_rows(const torch::Tensor& index, int64_t extra) {
-  for (auto* t : {&grad_accum, &denom, &max_radii})
-    *t = torch::cat({t->index_select(0, index), torch::zeros({extra}, torch::kFloat32)});
 }
 
 DensifyStats Densifier::densify_and_prune(Gaussians& g, GaussianAdam& adam, double extent, bool prune_screen_size,
@@ -94,47 +78,54 @@ DensifyStats Densifier::densify_and_prune(Gaussians& g, GaussianAdam& adam, doub
   stats.cloned = clone_idx.numel();
   stats.split = split_idx.numel();
 
-  // Clones: exact copies. Split children: two samples from each parent, scales / 1.6.
-  Gaussians added;
-  added.max_sh_degree = g.max_sh_degree;
-  {
-    auto src = g.parameters();
-    auto dst = added.parameters();
-    auto split2 = split_idx.repeat({2});
-    auto both = torch::cat({clone_idx, split2});
-    for (size_t i = 0; i < src.size(); ++i) *dst[i] = src[i]->detach().index_select(0, both);
-    if (split2.numel() > 0) {
-      auto gen = at::make_generator<at::CPUGeneratorImpl>(seed);
-      auto scales = g.log_scales.detach().index_select(0, split2).exp();
-      auto samples = at::normal(0.0, 1.0, {split2.numel(), 3}, gen) * scales;
-      auto rot = quaternion_to_matrix(g.quats.detach().index_select(0, split2));
-      auto means = torch::bmm(rot, samples.unsqueeze(2)).squeeze(2) + g.means.detach().index_select(0, split2);
-      added.means.narrow(0, clone_idx.numel(), split2.numel()).copy_(means);
-      added.log_scales.narrow(0, clone_idx.numel(), split2.numel()).copy_((scales / 1.6).log());
-    }
-  }
-  const int64_t extra = added.size();
-  append_gaussians(g, added);
-  adam.select_rows(torch::arange(n), extra);
-  // Children start with no screen statistics; parents keep theirs for the screen-size test below.
-  select_rows(torch::arange(n), extra);
-
-  // Prune: split parents, transparent Gaussians, and (after the first reset) huge ones.
-  auto remove = torch::zeros({n + extra}, torch::kBool);
-  remove.index_fill_(0, split_idx, true);
+  // Which rows survive. Clones are exact copies and share their parent's verdict except for the screen
+  // size (they have no statistics yet); split parents go; children get their own scale test.
   auto opacity = torch::sigmoid(g.opacity_logits.detach()).squeeze(1);
-  remove |= opacity < o.min_opacity;
+  auto transparent = opacity < o.min_opacity;
+  auto too_big_world = torch::zeros({n}, torch::kBool);
+  auto too_big_screen = torch::zeros({n}, torch::kBool);
   if (prune_screen_size) {
-    auto new_max_scale = std::get<0>(g.log_scales.detach().max(1)).exp();
-    remove |= max_radii > o.max_screen_radius;
-    remove |= new_max_scale > o.max_world_scale * extent;
+    too_big_world = max_scale > o.max_world_scale * extent;
+    too_big_screen = max_radii > o.max_screen_radius;
   }
-  auto keep = (~remove).nonzero().flatten();
-  stats.pruned = n + extra - keep.numel() - stats.split;
-  select_gaussians(g, keep);
-  adam.select_rows(keep, 0);
+  auto remove = transparent | too_big_world | too_big_screen;
+  remove.index_fill_(0, split_idx, true);
+  auto kept_orig = (~remove).nonzero().flatten();
+  auto clone_ok = (~(transparent | too_big_world)).index_select(0, clone_idx);
+  auto kept_clones = clone_idx.masked_select(clone_ok);
+  auto child_parent = split_idx.repeat({2});
+  auto child_ok = ~transparent.index_select(0, child_parent);
+  if (prune_screen_size) child_ok &= (max_scale.index_select(0, child_parent) / 1.6) <= o.max_world_scale * extent;
+
+  // Split children: two samples from each parent's Gaussian, scales / 1.6 (drawn for all, then kept).
+  torch::Tensor child_means, child_log_scales;
+  if (child_parent.numel() > 0) {
+    auto gen = at::make_generator<at::CPUGeneratorImpl>(seed);
+    auto scales = g.log_scales.detach().index_select(0, child_parent).exp();
+    auto samples = at::normal(0.0, 1.0, {child_parent.numel(), 3}, gen) * scales;
+    auto rot = quaternion_to_matrix(g.quats.detach().index_select(0, child_parent));
+    child_means = torch::bmm(rot, samples.unsqueeze(2)).squeeze(2) + g.means.detach().index_select(0, child_parent);
+    child_log_scales = (scales / 1.6).log();
+    auto keep_child = child_ok.nonzero().flatten();
+    child_means = child_means.index_select(0, keep_child);
+    child_log_scales = child_log_scales.index_select(0, keep_child);
+    child_parent = child_parent.index_select(0, keep_child);
+  }
+
+  // One gather per tensor: [kept originals | kept clones | kept children].
+  auto source = torch::cat({kept_orig, kept_clones, child_parent});
+  const int64_t first_new = kept_orig.numel();
+  const int64_t first_child = first_new + kept_clones.numel();
+  for (auto* p : g.parameters()) *p = p->detach().index_select(0, source);
+  if (child_parent.numel() > 0) {
+    g.means.narrow(0, first_child, child_parent.numel()).copy_(child_means);
+    g.log_scales.narrow(0, first_child, child_parent.numel()).copy_(child_log_scales);
+  }
+  for (auto* p : g.parameters()) p->set_requires_grad(true);
+  adam.gather_rows(source, first_new);
   resize(g.size());
   stats.after = g.size();
+  stats.pruned = n + stats.cloned + 2 * stats.split - stats.split - stats.after;
   return stats;
 }
 

@@ -19,6 +19,7 @@ nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o
   j["downscale"] = o.downscale;
   j["crop_to_multiple_of_8"] = o.crop_to_multiple_of_8;
   j["test_every"] = o.test_every;
+  j["test_list"] = o.test_list.empty() ? "" : fs::absolute(o.test_list).lexically_normal().string();
   if (!scene.views.empty())
     j["resolution"] = {scene.views.front().camera.width, scene.views.front().camera.height};
   j["train_views"] = scene.train_indices.size();
@@ -33,6 +34,7 @@ SceneOptions scene_options_from_config(const nlohmann::json& c, const std::strin
     o.downscale = c.at("downscale").get<int>();
     o.crop_to_multiple_of_8 = c.value("crop_to_multiple_of_8", false);
     o.test_every = c.at("test_every").get<int>();
+    o.test_list = c.value("test_list", std::string());
     o.format = c.value("scene_format", std::string());
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("missing or bad scene settings: ") + e.what());

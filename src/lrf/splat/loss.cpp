@@ -4,6 +4,8 @@
 
 #include <ATen/ATen.h>
 
+#include "lrf/splat/ssim_fused.h"
+
 namespace lrf::splat {
 namespace {
 
@@ -49,7 +51,12 @@ torch::Tensor ssim(const torch::Tensor& a, const torch::Tensor& b) { return ssim
 torch::Tensor photometric_loss(const torch::Tensor& rendered, const torch::Tensor& target, double lambda_ssim) {
   auto l1 = (rendered - target).abs().mean();
   if (lambda_ssim == 0) return l1;
-  return (1.0 - lambda_ssim) * l1 + lambda_ssim * (1.0 - ssim(rendered, target));
+  // Training takes the fused kernel (float32, gradient to the rendering only); the ATen version stays
+  // for other types and as the tested reference of the formula.
+  const bool fused = rendered.scalar_type() == torch::kFloat32 && target.scalar_type() == torch::kFloat32 &&
+                     !target.requires_grad();
+  auto s = fused ? fused_ssim(rendered, target) : ssim(rendered, target);
+  return (1.0 - lambda_ssim) * l1 + lambda_ssim * (1.0 - s);
 }
 
 double psnr(const torch::Tensor& a, const torch::Tensor& b) {

@@ -97,15 +97,12 @@ void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor&
   }
 }
 
-void GaussianAdam::select_rows(const torch::Tensor& index, int64_t extra) {
-  for (int k = 0; k < kGroups; ++k) {
+void GaussianAdam::gather_rows(const torch::Tensor& source, int64_t first_new) {
+  for (int k = 0; k < kGroups; ++k)
     for (auto* t : {&m_[k], &v_[k]}) {
-      auto kept = t->index_select(0, index);
-      auto shape = kept.sizes().vec();
-      shape[0] = extra;
-      *t = torch::cat({kept, torch::zeros(shape, kept.options())}, 0).contiguous();
+      *t = t->index_select(0, source);
+      t->narrow(0, first_new, t->size(0) - first_new).zero_();
     }
-  }
 }
 
 void GaussianAdam::reset_group(int group) {

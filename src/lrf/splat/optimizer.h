@@ -6,8 +6,9 @@
 //
 // Two exact savings over a plain dense Adam: SH bands above the active degree are skipped (their
 // gradients and moments are exactly zero until the band is switched on, so Adam would not move them);
-// and, optionally (`sparse`), rows of Gaussians that no pixel saw this step are skipped, as in the
-// "sparse Adam" of later Inria code. The latter changes the maths (their moments neither decay nor
+// and, optionally (`sparse`), rows that received no gradient this step are skipped, as in the
+// "sparse Adam" of later Inria code (which skips the Gaussians outside the view; the trainer passes the
+// ones no pixel reached, a smaller set). The latter changes the maths (their moments neither decay nor
 // carry momentum), so it is off by default.
 #include <array>
 #include <cstdint>
@@ -38,13 +39,13 @@ class GaussianAdam {
   // The position learning rate at `step` (0-based): log-linear from init to final over total_steps.
   double position_lr(int64_t step) const;
   // One update of every parameter that has a gradient. active_sh_degree limits the SH bands moved;
-  // `visible` ([N] bool or undefined) restricts the update to those rows when `sparse` is set.
-  void step(Gaussians& g, int active_sh_degree, const torch::Tensor& visible = {});
+  // `rows` ([N] bool or undefined) restricts the update to those rows when `sparse` is set.
+  void step(Gaussians& g, int active_sh_degree, const torch::Tensor& rows = {});
   int64_t steps_taken() const { return steps_; }
 
-  // Row edits mirroring densification: keep the rows at `index` (int64) in that order, then append
-  // `extra` rows of zero moments.
-  void select_rows(const torch::Tensor& index, int64_t extra);
+  // Row edits mirroring densification: row i of the new state is row source[i] of the old one; rows
+  // from first_new on (clones, split children) start at zero.
+  void gather_rows(const torch::Tensor& source, int64_t first_new);
   // Zero the moments of one group (after an opacity reset, as the Inria code does).
   void reset_group(int group);
 

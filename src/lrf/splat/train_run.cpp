@@ -72,8 +72,10 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   }
   const int64_t total = trainer.options().iterations;
   Progress progress(o.task, total, 2.0, trainer.steps_done());
+  // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
   auto save = [&]() {
     trainer.save_checkpoint(ckpt);
+    write_ply(ply_path, trainer.export_gaussians());
     write_file_atomic(log_path, kLogHeader + log_rows);
   };
 

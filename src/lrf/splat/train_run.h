@@ -4,7 +4,7 @@
 // point_cloud.ply.
 //
 // Folder layout: OUT/config.json (written by the caller), OUT/checkpoint.pt, OUT/train_log.csv,
-// OUT/point_cloud.ply.
+// OUT/point_cloud.ply (refreshed at every checkpoint; config.json gains a "result" when the run ends).
 #include <cstdint>
 #include <string>
 

@@ -121,7 +121,14 @@ StepResult Trainer::step() {
   r.timings.densify = ms_since(t0);
 
   t0 = Clock::now();
-  adam_.step(g_, active_sh_degree(), out.radii > 0);
+  torch::Tensor touched;
+  if (options_.sparse_adam) {
+    // Rows the rasterizer reached: every Gaussian that blended into a pixel has an opacity gradient.
+    // Visible but fully occluded Gaussians (most of a dense field in a small image) are skipped too.
+    auto og = g_.opacity_logits.grad();
+    touched = og.defined() ? (og.squeeze(1) != 0) & (out.radii > 0) : out.radii > 0;
+  }
+  adam_.step(g_, active_sh_degree(), touched);
   for (auto* p : g_.parameters()) p->mutable_grad() = torch::Tensor();
   r.timings.optimizer = ms_since(t0);
 
@@ -209,6 +216,9 @@ void Trainer::load_checkpoint(const std::string& path) {
   auto params = g.parameters();
   for (size_t i = 0; i < params.size(); ++i) *params[i] = read("param." + names[i]);
   g.check(path);
+  if (g.max_sh_degree < options_.sh_degree)
+    fail(path, "checkpoint holds SH degree " + std::to_string(g.max_sh_degree) + ", this run trains degree " +
+                   std::to_string(options_.sh_degree));
   if (g.channels() != g_.channels()) fail(path, "checkpoint has " + std::to_string(g.channels()) +
                                                     " channels, the scene's targets have " +
                                                     std::to_string(g_.channels()));

@@ -38,7 +38,7 @@ struct TrainerOptions {
   LearningRates lr;
   DensifyOptions densify;
   DensifySchedule schedule;  // see DensifySchedule::for_iterations
-  bool sparse_adam = false;
+  bool sparse_adam = false;  // skip Adam on rows without gradient (see GaussianAdam::sparse)
   int psnr_every = 10;  // StepResult::psnr on the training view every this many steps (0 = never)
 };
 
