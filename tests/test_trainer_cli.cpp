@@ -41,7 +41,7 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   auto r = lrf_run("scene synth -o " + scene + " --views 12 --size 64x48 --points 1500");
   ASSERT_EQ(r.code, 0) << r.output;
 
-  r = lrf_run("train " + scene + " --space latent -o " + out);
+  r = lrf_run("train " + scene + " --space voxels -o " + out);
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("--space"), std::string::npos) << r.output;
 
