@@ -22,7 +22,7 @@ namespace {
 struct DemoOptions {
   std::string output = "out/demo";
   std::string autoencoder = "taef2";
-  int64_t iters = 1000;
+  int64_t iters = 2000;
   bool force = false;
 };
 
