@@ -4,6 +4,8 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "test_helpers.h"
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/autoencoder.h"
@@ -42,15 +44,7 @@ std::string first_fern_image() {
 
 double max_abs(const at::Tensor& a, const at::Tensor& b) { return (a - b).abs().max().item<double>(); }
 
-template <typename F>
-std::string error_of(F f) {
-  try {
-    f();
-  } catch (const lrf::Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using lrf::test::error_of;
 
 }  // namespace
 

@@ -47,14 +47,7 @@ lrf::TensorMap random_state_dict() {
   return sd;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const lrf::Error& e) {
-    return e.what();
-  }
-  return "";
-}
+using lrf::test::error_of;
 
 }  // namespace
 

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include <sys/wait.h>
@@ -10,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "lrf/core/error.h"
 #include "lrf/scene/synthetic_scene.h"
 
 namespace lrf::test {
@@ -74,6 +76,16 @@ inline std::string synthetic_scene(const SyntheticOptions& o = {8, "64x48", 3, 8
     if (ec) fs::remove_all(tmp);
   }
   return dir;
+}
+
+// The message of the lrf::Error that `f` throws, or "" when it throws none.
+inline std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const lrf::Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 }  // namespace lrf::test
