@@ -1,0 +1,63 @@
+#pragma once
+// Stage I: correspondence-aware fine-tuning of an autoencoder's encoder (the paper's Method,
+// "Correspondence-aware Autoencoding"; DESIGN.md §7). The decoder stays frozen; the loss is
+//   L_VAE + lambda1 * L_corres + lambda2 * L_reg
+// with every term a per-element mean so the lambdas do not depend on crop or batch size:
+//   L_VAE    mean |D(E(x)) - x| over pixels (KL-VAE: decoded from a posterior sample, plus kl_weight times
+//            the KL to N(0, I), scaled like ldm's: its per-image sums divided by the pixel count),
+//   L_corres sum over the batch's pairs of lambda_ij * mean |z_i(x_i) - z_j(x_j)|, lambda_ij the pair's
+//            APE share (sums to 1), latents sampled bilinearly at pixel / 8,
+//   L_reg    mean (z - z_orig)^2 for a deterministic encoder; for the KL-VAE the mean per-element
+//            KL(q_new || q_orig) between the diagonal Gaussian posteriors.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <ATen/Tensor.h>
+
+#include "lrf/autoencoder/autoencoder.h"
+#include "lrf/finetune/pair_batches.h"
+
+namespace lrf {
+
+struct EncoderFinetuneOptions {
+  std::vector<std::string> scenes;
+  std::vector<std::string> correspondence_files;  // optional, one per scene
+  std::string autoencoder = "taef2", encoder;     // model and an optional starting encoder
+  std::string out;                                // the fine-tuned encoder (.safetensors)
+  int max_side = 640;                             // scenes are downscaled so their longer side fits
+  int min_matches = 15;                           // pairs with fewer correspondences are dropped
+  PairBatchOptions batch;
+  int64_t steps = 300;
+  double lambda_corres = 1.0, lambda_reg = 1.0, kl_weight = 1e-6;
+  double base_lr = 4.5e-6;  // the paper's base rate; the Adam rate is base_lr x images per step ...
+  double lr = 0;            // ... unless this is set (> 0)
+  uint64_t seed = 0;
+  int64_t checkpoint_every = 50;
+  bool resume = false, force = false;
+};
+
+struct Stage1Losses {
+  at::Tensor total, vae, corres, reg;  // scalars; total carries the gradient
+};
+
+// The loss of one batch. `original` is the frozen starting autoencoder (for L_reg).
+Stage1Losses stage1_losses(Autoencoder& model, Autoencoder& original, const PairBatch& batch,
+                           const EncoderFinetuneOptions& options);
+
+struct EncoderFinetuneResult {
+  int64_t steps = 0;
+  double seconds = 0;
+  double last_total = 0, last_vae = 0, last_corres = 0, last_reg = 0;
+};
+
+// Runs Stage I to options.steps, checkpointing to checkpoint_path(out) and writing the encoder to `out`
+// (plus `out` with .json: the run record) atomically at the end.
+EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& options);
+
+// OUT.checkpoint.safetensors: the encoder, Adam's moments and the step.
+std::string finetune_checkpoint_path(const std::string& out);
+// OUT without its extension + ".json".
+std::string finetune_record_path(const std::string& out);
+
+}  // namespace lrf

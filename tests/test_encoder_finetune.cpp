@@ -1,0 +1,184 @@
+// Stage I: the batch sampler, the loss's properties, a tiny fine-tuning run that makes latents of a
+// held-out scene more consistent, exact resume, and bad input.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include "lrf/align/correspondence_loss.h"
+#include "lrf/core/error.h"
+#include "lrf/core/safetensors.h"
+#include "lrf/finetune/consistency.h"
+#include "lrf/finetune/encoder_finetune.h"
+#include "test_helpers.h"
+
+namespace fs = std::filesystem;
+using lrf::test::error_of;
+
+namespace {
+
+std::string taef2() { return lrf::test::shared_dir() + "/models/taef2"; }
+std::string train_scene() { return lrf::test::synthetic_scene(); }
+std::string heldout_scene() { return lrf::test::synthetic_scene({8, "64x48", 11, 800}); }
+
+lrf::PairScene pair_scene(const std::string& dir) { return lrf::load_pair_scene(dir, {}, 0, "", 15); }
+
+lrf::EncoderFinetuneOptions tiny_options(const std::string& out) {
+  lrf::EncoderFinetuneOptions o;
+  o.scenes = {train_scene()};
+  o.autoencoder = taef2();
+  o.out = out;
+  o.max_side = 0;
+  o.batch.pairs = 2;
+  o.batch.crop = 48;
+  o.steps = 30;
+  o.lr = 3e-4;
+  o.checkpoint_every = 10;
+  o.seed = 7;
+  return o;
+}
+
+TEST(PairBatches, CropsKeepCorrespondencesAndAreReproducible) {
+  std::vector<lrf::PairScene> scenes;
+  scenes.push_back(pair_scene(train_scene()));
+  lrf::PairBatchOptions bo;
+  bo.pairs = 3;
+  bo.crop = 40;
+  lrf::PairBatch a = lrf::sample_pair_batch(scenes, bo, 1, 5);
+  lrf::PairBatch b = lrf::sample_pair_batch(scenes, bo, 1, 5);
+  lrf::PairBatch c = lrf::sample_pair_batch(scenes, bo, 1, 6);
+  ASSERT_EQ(a.images.sizes(), (at::IntArrayRef{6, 3, 40, 40}));
+  EXPECT_TRUE(torch::equal(a.images, b.images));
+  EXPECT_FALSE(torch::equal(a.images, c.images));
+  for (size_t k = 0; k < a.xi.size(); ++k) {
+    EXPECT_GE(a.xi[k].size(0), bo.min_matches_in_crop);
+    EXPECT_TRUE(torch::equal(a.xi[k], b.xi[k]));
+    for (const auto& x : {a.xi[k], a.xj[k]}) {
+      EXPECT_GE(x.min().item<float>(), 0.0f);
+      EXPECT_LT(x.max().item<float>(), 40.0f);
+    }
+    EXPECT_GT(a.ape[k], 0.0);
+  }
+  // The synthetic scene's matches are exact projections of one textured surface point, so the crops'
+  // colours (bilinear between pixel centres) agree far better at corresponding pixels than at unrelated ones.
+  double matched = 0, shuffled = 0;
+  for (size_t k = 0; k < a.xi.size(); ++k) {
+    auto ci = lrf::sample_latent_at_pixels(a.images[2 * k], a.xi[k], 1);
+    auto cj = lrf::sample_latent_at_pixels(a.images[2 * k + 1], a.xj[k], 1);
+    matched += (ci - cj).abs().mean().item<double>();
+    shuffled += (ci - cj.roll(7, 0)).abs().mean().item<double>();
+  }
+  std::printf("colour difference: matched %.4f, shuffled %.4f\n", matched, shuffled);
+  EXPECT_LT(matched, 0.5 * shuffled);
+}
+
+TEST(Stage1Loss, ZeroForIdenticalViewsAndGradientOnlyInEncoder) {
+  auto model = lrf::load_autoencoder(taef2());
+  auto original = lrf::load_autoencoder(taef2());
+  model->set_decoder_trainable(false);
+  original->set_encoder_trainable(false);
+  original->set_decoder_trainable(false);
+  std::vector<lrf::PairScene> scenes;
+  scenes.push_back(pair_scene(train_scene()));
+  lrf::PairBatchOptions bo;
+  bo.pairs = 1;
+  bo.crop = 48;
+  lrf::PairBatch batch = lrf::sample_pair_batch(scenes, bo, 0, 0);
+  // Both halves of the pair are the same crop with the same points: every correspondence is exact.
+  batch.images[1].copy_(batch.images[0]);
+  batch.xj[0] = batch.xi[0].clone();
+  lrf::EncoderFinetuneOptions o;
+  lrf::Stage1Losses l = lrf::stage1_losses(*model, *original, batch, o);
+  EXPECT_EQ(l.corres.item<double>(), 0.0);
+  EXPECT_EQ(l.reg.item<double>(), 0.0);  // the model is still the original
+  EXPECT_GT(l.vae.item<double>(), 0.0);
+  // A different pair has a positive correspondence loss whose gradient reaches the encoder only.
+  lrf::PairBatch real = lrf::sample_pair_batch(scenes, bo, 0, 1);
+  lrf::Stage1Losses m = lrf::stage1_losses(*model, *original, real, o);
+  EXPECT_GT(m.corres.item<double>(), 0.0);
+  m.total.backward();
+  double encoder_grad = 0;
+  for (const auto& p : model->encoder_parameters()) {
+    if (p.grad().defined()) encoder_grad += p.grad().abs().sum().item<double>();
+  }
+  EXPECT_GT(encoder_grad, 0.0);
+  for (const auto& p : model->decoder_parameters()) EXPECT_FALSE(p.grad().defined());
+  for (const auto& p : original->encoder_parameters()) EXPECT_FALSE(p.grad().defined());
+}
+
+TEST(EncoderFinetune, TinyRunMakesAHeldOutSceneMoreConsistent) {
+  lrf::test::TempDir dir("stage1_tiny");
+  lrf::EncoderFinetuneOptions o = tiny_options(dir / "enc.safetensors");
+  lrf::finetune_encoder(o);
+  ASSERT_TRUE(fs::exists(o.out));
+  ASSERT_TRUE(fs::exists(lrf::finetune_record_path(o.out)));
+
+  lrf::PairScene heldout = pair_scene(heldout_scene());
+  auto stock = lrf::load_autoencoder(taef2());
+  auto tuned = lrf::load_autoencoder(taef2(), o.out);
+  lrf::ConsistencyReport before = lrf::measure_consistency(heldout, *stock);
+  lrf::ConsistencyReport after = lrf::measure_consistency(heldout, *tuned);
+  std::printf("held-out synthetic: corr %.4f -> %.4f, relative %.4f -> %.4f, round trip %.2f -> %.2f dB, HF %.4f -> %.4f\n",
+              before.correspondence_l1, after.correspondence_l1, before.correspondence_relative,
+              after.correspondence_relative, before.roundtrip_psnr, after.roundtrip_psnr,
+              before.high_frequency_share, after.high_frequency_share);
+  EXPECT_LT(after.correspondence_relative, 0.9 * before.correspondence_relative);
+  EXPECT_LT(after.correspondence_l1, 0.9 * before.correspondence_l1);
+  EXPECT_GT(after.roundtrip_psnr, before.roundtrip_psnr - 2.0);
+}
+
+TEST(EncoderFinetune, ResumedRunEqualsUninterruptedRun) {
+  lrf::test::TempDir dir("stage1_resume");
+  lrf::EncoderFinetuneOptions straight = tiny_options(dir / "straight.safetensors");
+  straight.steps = 6;
+  straight.checkpoint_every = 3;
+  lrf::finetune_encoder(straight);
+
+  lrf::EncoderFinetuneOptions first = straight;
+  first.out = dir / "resumed.safetensors";
+  first.steps = 3;  // stops after its checkpoint at step 3, as a killed run would have left it
+  lrf::finetune_encoder(first);
+  lrf::EncoderFinetuneOptions second = first;
+  second.steps = 6;
+  second.resume = true;
+  lrf::finetune_encoder(second);
+
+  lrf::StateDict a = lrf::read_safetensors(straight.out), b = lrf::read_safetensors(second.out);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t k = 0; k < a.size(); ++k) EXPECT_TRUE(torch::equal(a[k].value(), b[k].value())) << a[k].key();
+
+  // Resuming with other options is refused rather than mixing two runs.
+  lrf::EncoderFinetuneOptions other = second;
+  other.lambda_corres = 2.0;
+  other.steps = 8;
+  EXPECT_NE(error_of([&] { lrf::finetune_encoder(other); }).find("different options"), std::string::npos);
+}
+
+TEST(EncoderFinetune, BadInputIsReported) {
+  lrf::test::TempDir dir("stage1_bad");
+  lrf::EncoderFinetuneOptions o = tiny_options(dir / "enc.safetensors");
+  o.min_matches = 100000;
+  EXPECT_NE(error_of([&] { lrf::finetune_encoder(o); }).find("no view pair"), std::string::npos);
+
+  fs::create_directories(dir / "no_poses/images");
+  fs::copy_file(train_scene() + "/images/" + fs::directory_iterator(train_scene() + "/images")->path().filename().string(),
+                dir / "no_poses/images/a.png");
+  o = tiny_options(dir / "enc.safetensors");
+  o.scenes = {dir / "no_poses"};
+  EXPECT_NE(error_of([&] { lrf::finetune_encoder(o); }).find("no_poses"), std::string::npos);
+
+  o = tiny_options(dir / "enc.safetensors");
+  o.correspondence_files = {"a", "b"};
+  EXPECT_NE(error_of([&] { lrf::finetune_encoder(o); }).find("one per scene"), std::string::npos);
+
+  o = tiny_options(dir / "enc.safetensors");
+  o.resume = true;
+  EXPECT_NE(error_of([&] { lrf::finetune_encoder(o); }).find("no checkpoint"), std::string::npos);
+  EXPECT_FALSE(fs::exists(o.out));
+
+  auto r = lrf::test::run_lrf("finetune-encoder --scenes " + (dir / "missing") + " -o " + (dir / "x.safetensors"));
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_NE(r.output.find("missing"), std::string::npos);
+}
+
+}  // namespace
