@@ -6,6 +6,7 @@
 #include <torch/torch.h>
 
 #include "lrf/align/correspondence_loss.h"
+#include "lrf/autoencoder/kl_vae.h"
 #include "lrf/core/error.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/finetune/consistency.h"
@@ -104,6 +105,48 @@ TEST(Stage1Loss, ZeroForIdenticalViewsAndGradientOnlyInEncoder) {
   EXPECT_GT(encoder_grad, 0.0);
   for (const auto& p : model->decoder_parameters()) EXPECT_FALSE(p.grad().defined());
   for (const auto& p : original->encoder_parameters()) EXPECT_FALSE(p.grad().defined());
+}
+
+TEST(Stage1Loss, KLVaeUsesPosteriorKLAsRegulariser) {
+  lrf::KLConfig c;
+  c.ch = 32;
+  c.ch_mult = {1, 1, 1, 1};
+  c.num_res_blocks = 1;
+  torch::manual_seed(0);
+  lrf::KLAutoencoder model(c);
+  lrf::KLAutoencoder original(c);
+  // Same weights in both: the regulariser is KL(q || q) = 0 exactly.
+  {
+    torch::NoGradGuard no_grad;
+    auto a = model.encoder_parameters(), b = original.encoder_parameters();
+    for (size_t k = 0; k < a.size(); ++k) b[k].copy_(a[k]);
+    auto ad = model.decoder_parameters(), bd = original.decoder_parameters();
+    for (size_t k = 0; k < ad.size(); ++k) bd[k].copy_(ad[k]);
+  }
+  model.set_decoder_trainable(false);
+  original.set_encoder_trainable(false);
+  original.set_decoder_trainable(false);
+  std::vector<lrf::PairScene> scenes;
+  scenes.push_back(pair_scene(train_scene()));
+  lrf::PairBatchOptions bo;
+  bo.pairs = 1;
+  bo.crop = 32;
+  lrf::PairBatch batch = lrf::sample_pair_batch(scenes, bo, 0, 2);
+  lrf::EncoderFinetuneOptions o;
+  lrf::Stage1Losses l = lrf::stage1_losses(model, original, batch, o);
+  EXPECT_NEAR(l.reg.item<double>(), 0.0, 1e-7);
+  // Moving the fine-tuned encoder makes the KL positive, and the gradient stays in the encoder.
+  {
+    torch::NoGradGuard no_grad;
+    for (auto& p : model.encoder_parameters()) p.add_(0.01 * torch::randn_like(p));
+  }
+  lrf::Stage1Losses m = lrf::stage1_losses(model, original, batch, o);
+  EXPECT_GT(m.reg.item<double>(), 0.0);
+  m.total.backward();
+  for (const auto& p : model.decoder_parameters()) EXPECT_FALSE(p.grad().defined());
+  double g = 0;
+  for (const auto& p : model.encoder_parameters()) g += p.grad().defined() ? p.grad().abs().sum().item<double>() : 0.0;
+  EXPECT_GT(g, 0.0);
 }
 
 TEST(EncoderFinetune, TinyRunMakesAHeldOutSceneMoreConsistent) {

@@ -80,7 +80,9 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   // The encoded test views: the round-trip ceiling and the latent-space reference.
   auto encoded = encode_views_cached(run.scene, run.scene.test_indices, *ae,
                                      autoencoder_identity(run.autoencoder, run.encoder), default_cache_dir());
-  const std::string image_dir = (fs::path(out) / "eval").string();
+  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
+  const std::string image_dir = (fs::path(result_dir) / "eval").string();
+  fs::create_directories(result_dir);
   if (o.write_images) fs::create_directories(image_dir);
 
   torch::NoGradGuard no_grad;
@@ -135,7 +137,7 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   std::error_code ec;
   metrics["storage_mb"] = double(fs::file_size(fs::path(out) / "point_cloud.ply", ec)) / (1 << 20);
   metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
-  write_json_file((fs::path(out) / "metrics.json").string(), metrics);
+  write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
   progress.finish({{"psnr", mean.psnr}, {"ssim", mean.ssim}});
   return metrics;
 }

@@ -58,12 +58,14 @@ torch::Tensor render_latent(const LatentRun& run, int view);
 struct LatentEvalOptions {
   std::string decoder;        // decoder override (Stage III) ("" = the run's autoencoder)
   std::string lpips_weights;  // "" = LPIPS not computed ("lpips": null with the reason)
-  bool write_images = true;   // OUT/eval/<name>.png decoded test views
+  bool write_images = true;   // <output_dir>/eval/<name>.png decoded test views
+  std::string output_dir;     // where metrics.json and eval/ go ("" = the run folder OUT)
 };
 
 // Scores the decoded test views against the real images (at 8x the latent size): PSNR, SSIM, LPIPS, plus
 // the autoencoder's round-trip PSNR on the same views (the ceiling) and the latent-space PSNR of the
-// rendered latents against the encoded test views; writes OUT/metrics.json and returns it.
+// rendered latents against the encoded test views; writes metrics.json (in options.output_dir, default OUT)
+// and returns it.
 nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptions& options);
 
 }  // namespace lrf

@@ -24,7 +24,9 @@ at::Tensor gaussian_kl(const at::Tensor& mu_a, const at::Tensor& logvar_a, const
   return 0.5 * (logvar_b - logvar_a + (logvar_a.exp() + (mu_a - mu_b).pow(2)) / logvar_b.exp() - 1);
 }
 
-nlohmann::json options_json(const EncoderFinetuneOptions& o) {
+}  // namespace
+
+nlohmann::json encoder_finetune_options_json(const EncoderFinetuneOptions& o) {
   return {{"scenes", o.scenes},
           {"correspondence_files", o.correspondence_files},
           {"autoencoder", o.autoencoder},
@@ -45,9 +47,11 @@ nlohmann::json options_json(const EncoderFinetuneOptions& o) {
           {"checkpoint_every", o.checkpoint_every}};
 }
 
+namespace {
+
 // What must be equal for a checkpoint to be continued (steps may be extended).
 nlohmann::json resume_key(const EncoderFinetuneOptions& o) {
-  nlohmann::json j = options_json(o);
+  nlohmann::json j = encoder_finetune_options_json(o);
   j.erase("steps");
   j.erase("checkpoint_every");
   return j;
@@ -191,7 +195,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   result.steps = o.steps;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   model->save_encoder(o.out);
-  nlohmann::json record = run_record(options_json(o));
+  nlohmann::json record = run_record(encoder_finetune_options_json(o));
   record["autoencoder_identity"] = autoencoder_identity(o.autoencoder, o.encoder);
   record["crop_used"] = side;
   record["adam_lr"] = adam.lr();

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include <ATen/Tensor.h>
+#include <nlohmann/json.hpp>
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/finetune/pair_batches.h"
@@ -54,6 +55,9 @@ struct EncoderFinetuneResult {
 // Runs Stage I to options.steps, checkpointing to checkpoint_path(out) and writing the encoder to `out`
 // (plus `out` with .json: the run record) atomically at the end.
 EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& options);
+
+// The options as recorded in OUT.json (under "options") and compared when a pipeline reuses a run.
+nlohmann::json encoder_finetune_options_json(const EncoderFinetuneOptions& options);
 
 // OUT.checkpoint.safetensors: the encoder, Adam's moments and the step.
 std::string finetune_checkpoint_path(const std::string& out);

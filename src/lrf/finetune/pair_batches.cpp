@@ -14,16 +14,6 @@
 namespace lrf {
 namespace {
 
-int downscale_for(const std::string& root, const std::string& images_dir, int max_side) {
-  if (max_side <= 0) return 1;
-  SceneOptions probe_options;
-  probe_options.images_dir = images_dir;
-  Scene probe = load_scene(root, probe_options);
-  int longest = 0;
-  for (const auto& v : probe.views) longest = std::max({longest, v.file_width, v.file_height});
-  return std::max(1, (longest + max_side - 1) / max_side);
-}
-
 void check_same_views(const CorrespondenceSet& set, const Scene& scene, const std::string& path) {
   if (set.view_names.size() != scene.views.size()) {
     fail(path, "describes " + std::to_string(set.view_names.size()) + " views but the scene has " +
@@ -65,9 +55,19 @@ at::Tensor points_tensor(const std::vector<Eigen::Vector2f>& p) {
 
 }  // namespace
 
+int downscale_for_max_side(const std::string& root, const std::string& images_dir, int max_side) {
+  if (max_side <= 0) return 1;
+  SceneOptions probe_options;
+  probe_options.images_dir = images_dir;
+  Scene probe = load_scene(root, probe_options);
+  int longest = 0;
+  for (const auto& v : probe.views) longest = std::max({longest, v.file_width, v.file_height});
+  return std::max(1, (longest + max_side - 1) / max_side);
+}
+
 PairScene load_pair_scene(const std::string& root, SceneOptions so, int max_side,
                           const std::string& correspondence_file, int min_matches) {
-  if (so.downscale <= 0) so.downscale = downscale_for(root, so.images_dir, max_side);
+  if (so.downscale <= 0) so.downscale = downscale_for_max_side(root, so.images_dir, max_side);
   so.crop_to_multiple_of_8 = true;
   so.test_every = 0;  // every view of a training scene is used
   PairScene ps;

@@ -29,6 +29,10 @@ struct PairScene {
 PairScene load_pair_scene(const std::string& root, SceneOptions options, int max_side, const std::string& correspondence_file,
                           int min_matches);
 
+// The smallest integer downscale of `root`'s images (folder `images_dir`, "" = the default) that brings
+// their longer side to at most `max_side` pixels (1 when max_side <= 0).
+int downscale_for_max_side(const std::string& root, const std::string& images_dir, int max_side);
+
 struct PairBatchOptions {
   int pairs = 2;                 // view pairs per batch (2 images each)
   int crop = 256;                // square crop side in pixels (multiple of 8), reduced to fit every image
