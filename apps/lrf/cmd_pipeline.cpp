@@ -1,0 +1,55 @@
+// lrf pipeline: Stage I -> Stage II -> Stage III on training scenes, then the ablation on unseen scenes.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "command.h"
+#include "lrf/core/atomic_file.h"
+#include "lrf/pipeline/pipeline.h"
+
+namespace {
+
+lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
+  auto* cmd = root.add_subcommand(
+      "pipeline",
+      "The paper's three stages and its ablation: Stage I (encoder) on the training scenes, latent fields with the "
+      "stock and the new encoder, Stage III (decoder) on the training scenes' fields, then on the evaluation scenes "
+      "the rows stock / encoder / decoder / both (+ rgb/8): DIR/ablation.csv, DIR/ablation.md, DIR/report.html, "
+      "DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
+      "command is run again");
+  auto o = std::make_shared<lrf::PipelineOptions>();
+  cmd->add_option("--train-scenes", o->train_scenes, "Scenes for Stage I and Stage III")->required();
+  cmd->add_option("--eval-scenes", o->eval_scenes, "Unseen scenes the ablation is measured on")->required();
+  cmd->add_option("-o,--output", o->out, "Output folder")->required();
+  cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder (name, folder or weights file)")->capture_default_str();
+  cmd->add_option("--max-side", o->max_side,
+                  "Downscale each scene's images by the smallest integer factor bringing the longer side to at most "
+                  "this many pixels")
+      ->capture_default_str();
+  cmd->add_option("--field-iters", o->field_iters, "Iterations of every latent field and of the rgb/8 baseline")
+      ->capture_default_str();
+  cmd->add_option("--stage1-steps", o->stage1.steps, "Stage I steps")->capture_default_str();
+  cmd->add_option("--stage1-pairs", o->stage1.batch.pairs, "Stage I view pairs per step")->capture_default_str();
+  cmd->add_option("--stage1-crop", o->stage1.batch.crop, "Stage I crop side (pixels)")->capture_default_str();
+  cmd->add_option("--stage1-lr", o->stage1.lr, "Stage I Adam learning rate (0: paper's base rate x images per step)")
+      ->capture_default_str();
+  cmd->add_option("--lambda-corres", o->stage1.lambda_corres, "Stage I weight of the correspondence loss")
+      ->capture_default_str();
+  cmd->add_option("--lambda-reg", o->stage1.lambda_reg, "Stage I weight of the regulariser")->capture_default_str();
+  cmd->add_option("--stage3-steps", o->stage3_steps, "Stage III steps (each decoder)")->capture_default_str();
+  cmd->add_option("--stage3-lr", o->stage3_lr, "Stage III learning rate (0: finetune-decoder's default)")
+      ->capture_default_str();
+  cmd->add_option("--stage3-crop", o->stage3_crop, "Stage III crop side in pixels (0: finetune-decoder's default)")
+      ->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of every stage")->capture_default_str();
+  cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS (v0.1 VGG) weights; without them LPIPS is not computed");
+  cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default: $LRF_CACHE or ~/.cache/lrf)");
+  cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the rgb/8 reference row");
+  lrf::cli::on_run(cmd, [o] {
+    auto record = lrf::run_pipeline(*o);
+    std::printf("%s", lrf::read_file((std::filesystem::path(o->out) / "ablation.md").string()).c_str());
+    return 0;
+  });
+});
+
+}  // namespace

@@ -1,0 +1,44 @@
+#pragma once
+// Stage III: VAE-radiance-field alignment (the paper's Method, DESIGN.md §8). Fitted latent fields
+// render latents for their training views and for their held-out views; these are distributed unlike
+// encoded latents (blur, floaters, view-dependent leftovers), so only the decoder is fine-tuned to turn
+// them into the real images:
+//   loss = weight_train * mean |D(Z_train) - I_train| + weight_novel * mean |D(Z_novel) - I_novel|
+// on random aligned crops (latent crop c/8, image crop c at 8x the offset).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace lrf {
+
+struct DecoderFinetuneOptions {
+  std::vector<std::string> fields;             // finished latent runs (`lrf train --space latent`)
+  std::string autoencoder = "taef2", encoder;  // must be what every field was trained with
+  std::string decoder;                         // start from this decoder ("" = the autoencoder's)
+  std::string out;                             // the fine-tuned decoder (.safetensors)
+  int64_t steps = 300;
+  int batch = 2;                 // crops per step from training views, and as many from held-out views
+  int crop = 128;                // image crop side (multiple of 8), reduced to fit the smallest view
+  double weight_train = 0.5, weight_novel = 0.5;
+  double base_lr = 4.5e-6;       // the paper's base rate; Adam's rate is base_lr x crops per step ...
+  double lr = 0;                 // ... unless this is set (> 0)
+  uint64_t seed = 0;
+  int64_t checkpoint_every = 50;
+  bool resume = false, force = false;
+};
+
+struct DecoderFinetuneResult {
+  int64_t steps = 0, train_samples = 0, novel_samples = 0;
+  double seconds = 0, last_loss = 0, last_train = 0, last_novel = 0;
+};
+
+DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& options);
+
+nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& options);
+// OUT.checkpoint.safetensors and OUT without its extension + ".json" (the run record).
+std::string decoder_checkpoint_path(const std::string& out);
+std::string decoder_record_path(const std::string& out);
+
+}  // namespace lrf

@@ -1,0 +1,338 @@
+#include "lrf/pipeline/pipeline.h"
+
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <set>
+
+#include "lrf/core/error.h"
+#include "lrf/core/image_io.h"
+#include "lrf/core/log.h"
+#include "lrf/core/run_info.h"
+#include "lrf/eval/report.h"
+#include "lrf/eval/table.h"
+#include "lrf/field/compare.h"
+#include "lrf/field/latent_run.h"
+#include "lrf/finetune/decoder_finetune.h"
+#include "lrf/finetune/pair_batches.h"
+#include "lrf/splat/train_run.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+namespace {
+
+std::string canonical(const std::string& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(p, ec);
+  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
+}
+
+std::string scene_name(const std::string& root) { return fs::path(canonical(root)).filename().string(); }
+
+bool run_finished(const std::string& dir) {
+  const fs::path config = fs::path(dir) / "config.json";
+  return fs::exists(config) && fs::exists(fs::path(dir) / "point_cloud.ply") && read_json_file(config.string()).contains("result");
+}
+
+struct Paths {
+  std::string root;
+  std::string field(const std::string& scene, const std::string& tag) const {
+    return (fs::path(root) / "fields" / (scene_name(scene) + "-" + tag)).string();
+  }
+  std::string encoder() const { return (fs::path(root) / "stage1" / "encoder.safetensors").string(); }
+  std::string decoder(const std::string& tag) const {
+    return (fs::path(root) / "stage3" / ("decoder-" + tag + ".safetensors")).string();
+  }
+  std::string eval(const std::string& scene, const std::string& row) const {
+    return (fs::path(root) / "eval" / scene_name(scene) / row).string();
+  }
+};
+
+void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const std::string& dir,
+                         const std::string& encoder) {
+  if (run_finished(dir)) {
+    log_info("reusing latent field " + dir);
+    return;
+  }
+  LatentTrainOptions l;
+  l.scene = scene;
+  l.out = dir;
+  l.downscale = downscale_for_max_side(scene, "", o.max_side);
+  l.autoencoder = o.autoencoder;
+  l.encoder = encoder;
+  l.cache_dir = o.cache_dir;
+  l.iters = o.field_iters;
+  l.seed = o.seed;
+  l.resume = fs::exists(splat::checkpoint_path(dir));
+  l.force = !l.resume;
+  log_info("== latent field " + dir + (l.resume ? " (resuming)" : ""));
+  train_latent_field(l);
+}
+
+void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const std::string& dir) {
+  if (run_finished(dir)) {
+    log_info("reusing rgb/8 field " + dir);
+    return;
+  }
+  SceneOptions so;
+  so.downscale = downscale_for_max_side(scene, "", o.max_side);
+  const bool resume = fs::exists(splat::checkpoint_path(dir));
+  log_info("== rgb/8 field " + dir + (resume ? " (resuming)" : ""));
+  train_rgb_at_latent_resolution(scene, so, dir, o.field_iters, false, o.seed, resume);
+}
+
+void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
+  EncoderFinetuneOptions e = o.stage1;
+  e.scenes = o.train_scenes;
+  e.correspondence_files.clear();
+  e.autoencoder = o.autoencoder;
+  e.encoder.clear();
+  e.out = paths.encoder();
+  e.max_side = o.max_side;
+  e.seed = o.seed;
+  const std::string record = finetune_record_path(e.out);
+  if (fs::exists(e.out) && fs::exists(record)) {
+    if (read_json_file(record).value("options", nlohmann::json()) != encoder_finetune_options_json(e)) {
+      fail(record, "the Stage I encoder in this folder was made with other options; use another output folder or "
+                   "remove " + fs::path(e.out).parent_path().string());
+    }
+    log_info("reusing Stage I encoder " + e.out);
+    return;
+  }
+  e.resume = fs::exists(finetune_checkpoint_path(e.out));
+  e.force = !e.resume;
+  log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : ""));
+  finetune_encoder(e);
+}
+
+void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fields, const std::string& encoder,
+                    const std::string& out) {
+  DecoderFinetuneOptions d;
+  d.fields = fields;
+  d.autoencoder = o.autoencoder;
+  d.encoder = encoder;
+  d.out = out;
+  d.steps = o.stage3_steps;
+  if (o.stage3_lr > 0) d.lr = o.stage3_lr;
+  if (o.stage3_crop > 0) d.crop = o.stage3_crop;
+  d.seed = o.seed;
+  if (fs::exists(out) && fs::exists(decoder_record_path(out))) {
+    if (read_json_file(decoder_record_path(out)).value("options", nlohmann::json()) != decoder_finetune_options_json(d)) {
+      fail(decoder_record_path(out), "the Stage III decoder in this folder was made with other options; use another "
+                                     "output folder or remove " + fs::path(out).parent_path().string());
+    }
+    log_info("reusing Stage III decoder " + out);
+    return;
+  }
+  d.resume = fs::exists(decoder_checkpoint_path(out));
+  d.force = !d.resume;
+  log_info("== Stage III " + out + (d.resume ? " (resuming)" : ""));
+  finetune_decoder(d);
+}
+
+nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+                                  const std::string& dir) {
+  const std::string metrics = (fs::path(dir) / "metrics.json").string();
+  if (fs::exists(metrics)) return read_json_file(metrics);
+  LatentEvalOptions e;
+  e.decoder = decoder;
+  e.lpips_weights = o.lpips_weights;
+  e.output_dir = dir;
+  return evaluate_latent_run(field, e);
+}
+
+Cell number(const nlohmann::json& m, const char* key) {
+  return m.contains(key) && m[key].is_number() ? Cell(m[key].get<double>()) : Cell();
+}
+
+// The scenes a Stage III decoder was fine-tuned on, from its fields' recorded configurations.
+std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
+  std::vector<std::string> scenes;
+  for (const auto& f : fields) {
+    scenes.push_back(canonical(read_json_file((fs::path(f) / "config.json").string()).value("scene", std::string())));
+  }
+  return scenes;
+}
+
+}  // namespace
+
+const std::vector<std::string>& ablation_rows() {
+  static const std::vector<std::string> rows = {"rgb/8", "stock", "encoder", "decoder", "both"};
+  return rows;
+}
+
+void check_no_overlap(const std::vector<std::string>& train_scenes, const std::vector<std::string>& eval_scenes) {
+  std::set<std::string> train;
+  for (const auto& t : train_scenes) train.insert(canonical(t));
+  for (const auto& e : eval_scenes) {
+    if (train.count(canonical(e))) fail(e, "is both a training and an evaluation scene; evaluation scenes must be unseen");
+  }
+}
+
+nlohmann::json run_pipeline(const PipelineOptions& o) {
+  if (o.train_scenes.empty() || o.eval_scenes.empty()) fail("pipeline: give --train-scenes and --eval-scenes");
+  if (o.out.empty()) fail("pipeline: no output folder (-o)");
+  check_no_overlap(o.train_scenes, o.eval_scenes);
+  std::set<std::string> names;
+  for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
+    for (const auto& s : *list) {
+      if (!fs::is_directory(s)) fail(s, "scene folder not found");
+      if (!names.insert(scene_name(s)).second) fail(s, "two scenes share the folder name '" + scene_name(s) + "'");
+    }
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  fs::create_directories(o.out);
+  Paths paths{o.out};
+  nlohmann::json inputs = {{"train_scenes", nlohmann::json::array()},
+                           {"eval_scenes", nlohmann::json::array()},
+                           {"autoencoder", o.autoencoder},
+                           {"max_side", o.max_side},
+                           {"field_iters", o.field_iters},
+                           {"stage3_steps", o.stage3_steps},
+                           {"stage1", encoder_finetune_options_json(o.stage1)},
+                           {"seed", o.seed}};
+  for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical(s));
+  for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical(s));
+  nlohmann::json record = run_record(inputs);
+  const std::string record_path = (fs::path(o.out) / "pipeline.json").string();
+  write_json_file(record_path, record);
+
+  // Stage I, then Stage II on the training scenes with both encoders, then Stage III on each set.
+  ensure_encoder(o, paths);
+  const std::string encoder = paths.encoder();
+  std::map<std::string, std::vector<std::string>> train_fields;
+  for (const auto& s : o.train_scenes) {
+    for (const auto& [tag, enc] : {std::pair<std::string, std::string>{"stock", ""}, {"ft", encoder}}) {
+      const std::string dir = paths.field(s, tag);
+      ensure_latent_field(o, s, dir, enc);
+      train_fields[tag].push_back(dir);
+    }
+  }
+  ensure_decoder(o, train_fields["stock"], "", paths.decoder("stock"));
+  ensure_decoder(o, train_fields["ft"], encoder, paths.decoder("ft"));
+
+  // What each stage was trained on, from the stages' own records, checked against the evaluation scenes.
+  nlohmann::json trained_on = {
+      {"stage1", read_json_file(finetune_record_path(encoder))["options"]["scenes"]},
+      {"stage3_stock", field_scenes(train_fields["stock"])},
+      {"stage3_ft", field_scenes(train_fields["ft"])}};
+  for (auto& [stage, scenes] : trained_on.items()) {
+    std::vector<std::string> list;
+    for (const auto& s : scenes) list.push_back(s.get<std::string>());
+    check_no_overlap(list, o.eval_scenes);
+  }
+  record["trained_on"] = trained_on;
+  record["artifacts"] = {{"encoder", encoder},
+                         {"decoder_stock", paths.decoder("stock")},
+                         {"decoder_ft", paths.decoder("ft")},
+                         {"train_fields", train_fields}};
+  write_json_file(record_path, record);
+
+  // Evaluation scenes: fields with both encoders (and the rgb/8 baseline), decoded with both decoders.
+  const std::vector<std::string> header = {"scene", "method", "psnr", "delta_psnr", "ssim", "lpips", "latent_psnr",
+                                           "roundtrip_psnr"};
+  std::vector<Row> rows;
+  ReportSpec spec;
+  spec.title = "lrf pipeline: ablation";
+  spec.max_image_side = 640;
+  nlohmann::json results = nlohmann::json::object();
+  std::map<std::string, std::vector<double>> psnr_by_row;
+  for (const auto& s : o.eval_scenes) {
+    const std::string stock_field = paths.field(s, "stock"), ft_field = paths.field(s, "ft");
+    ensure_latent_field(o, s, stock_field, "");
+    ensure_latent_field(o, s, ft_field, encoder);
+    std::map<std::string, nlohmann::json> m;
+    std::map<std::string, std::string> image_dirs;
+    if (o.rgb_baseline) {
+      const std::string rgb = paths.field(s, "rgb8");
+      ensure_rgb_field(o, s, rgb);
+      const std::string metrics = (fs::path(rgb) / "metrics.json").string();
+      m["rgb/8"] = fs::exists(metrics) ? read_json_file(metrics) : evaluate_rgb_run(rgb, o.lpips_weights);
+      image_dirs["rgb/8"] = (fs::path(rgb) / "eval").string();
+    }
+    const std::map<std::string, std::pair<std::string, std::string>> latent_rows = {
+        {"stock", {stock_field, ""}},
+        {"encoder", {ft_field, ""}},
+        {"decoder", {stock_field, paths.decoder("stock")}},
+        {"both", {ft_field, paths.decoder("ft")}}};
+    for (const auto& [row, spec_pair] : latent_rows) {
+      const std::string dir = paths.eval(s, row);
+      m[row] = ensure_latent_eval(o, spec_pair.first, spec_pair.second, dir);
+      image_dirs[row] = (fs::path(dir) / "eval").string();
+    }
+    const double stock_psnr = m["stock"].value("psnr", 0.0);
+    for (const auto& row : ablation_rows()) {
+      if (!m.count(row)) continue;
+      const auto& r = m[row];
+      const bool latent = row != "rgb/8";
+      rows.push_back({scene_name(s), row, number(r, "psnr"),
+                      r.contains("psnr") ? Cell(r["psnr"].get<double>() - stock_psnr) : Cell(), number(r, "ssim"),
+                      number(r, "lpips"), latent ? number(r, "latent_psnr") : Cell(),
+                      latent ? number(r, "roundtrip_psnr") : Cell()});
+      psnr_by_row[row].push_back(r.value("psnr", 0.0));
+      results[scene_name(s)][row] = {{"psnr", r.value("psnr", 0.0)}, {"ssim", r.value("ssim", 0.0)}, {"lpips", r.value("lpips", nlohmann::json())}};
+    }
+    // Report: every test view, ground truth then each row.
+    SceneOptions so;
+    so.downscale = downscale_for_max_side(s, "", o.max_side);
+    so.crop_to_multiple_of_8 = true;
+    Scene scene = load_scene(s, so);
+    for (int i : scene.test_indices) {
+      const View& v = scene.views[static_cast<size_t>(i)];
+      ReportView rv;
+      rv.name = scene_name(s) + " / " + v.name;
+      rv.ground_truth = {"ground truth", scene.load_image(i), {}};
+      const std::string png = fs::path(v.name).stem().string() + ".png";
+      for (const auto& row : ablation_rows()) {
+        if (!image_dirs.count(row)) continue;
+        const std::string path = (fs::path(image_dirs[row]) / png).string();
+        ReportImage im{row, fs::exists(path) ? read_image_rgb(path) : cv::Mat(), {}};
+        for (const auto& view : m[row].value("views", nlohmann::json::array())) {
+          if (view.value("name", std::string()) == v.name) im.numbers.push_back({"PSNR", number(view, "psnr")});
+        }
+        rv.methods.push_back(im);
+      }
+      spec.views.push_back(rv);
+    }
+  }
+  if (o.eval_scenes.size() > 1) {
+    const double stock_mean = [&] {
+      double sum = 0;
+      for (double p : psnr_by_row["stock"]) sum += p;
+      return sum / psnr_by_row["stock"].size();
+    }();
+    for (const auto& row : ablation_rows()) {
+      if (!psnr_by_row.count(row)) continue;
+      double sum = 0;
+      for (double p : psnr_by_row[row]) sum += p;
+      const double mean = sum / psnr_by_row[row].size();
+      rows.push_back({"mean", row, Cell(mean), Cell(mean - stock_mean), Cell(), Cell(), Cell(), Cell()});
+    }
+  }
+  write_table_csv((fs::path(o.out) / "ablation.csv").string(), header, rows);
+  write_table_markdown((fs::path(o.out) / "ablation.md").string(), header, rows);
+  spec.summary_header = header;
+  spec.summary_rows = rows;
+  spec.summary_better = {Better::none, Better::none, Better::higher, Better::higher, Better::higher, Better::lower,
+                         Better::higher, Better::higher};
+  std::string train_list, eval_list;
+  for (const auto& s : o.train_scenes) train_list += (train_list.empty() ? "" : ", ") + scene_name(s);
+  for (const auto& s : o.eval_scenes) eval_list += (eval_list.empty() ? "" : ", ") + scene_name(s);
+  spec.notes.push_back("Training scenes (Stage I and Stage III): " + train_list + ". Evaluation scenes (unseen by both): " +
+                       eval_list + ". Autoencoder " + o.autoencoder + "; every scene downscaled so its longer side is at "
+                       "most " + std::to_string(o.max_side) + " px; latent fields of " + std::to_string(o.field_iters) +
+                       " iterations.");
+  spec.notes.push_back("Rows as in the paper's Table 3: stock = latent field with the stock encoder, decoded by the stock "
+                       "decoder; encoder = Stage I encoder; decoder = Stage III decoder fine-tuned on stock-encoder "
+                       "fields; both = Stage I encoder and the decoder fine-tuned on its fields. rgb/8 = RGB 3DGS at "
+                       "latent resolution, for reference. delta_psnr is against the stock row.");
+  write_html_report((fs::path(o.out) / "report.html").string(), spec);
+  record["results"] = results;
+  record["wall_seconds_this_session"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  write_json_file(record_path, record);
+  log_info("wrote " + (fs::path(o.out) / "ablation.md").string() + " and report.html");
+  return record;
+}
+
+}  // namespace lrf

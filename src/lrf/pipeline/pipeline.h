@@ -1,0 +1,44 @@
+#pragma once
+// `lrf pipeline`: the paper's three stages end to end, and its ablation (Table 3) on scenes that no
+// stage was trained on.
+//   Stage I   encoder fine-tuned on the training scenes                      DIR/stage1/encoder.safetensors
+//   Stage II  latent fields of every scene with the stock and the new encoder DIR/fields/<scene>-{stock,ft}
+//   Stage III decoders fine-tuned on the training scenes' fields: one on the   DIR/stage3/decoder-{stock,ft}.safetensors
+//             stock-encoder fields (the "decoder only" row), one on the new-encoder fields ("both")
+//   rgb/8     an RGB field at latent resolution on each evaluation scene     DIR/fields/<scene>-rgb8
+//   scores    DIR/eval/<scene>/<row>/metrics.json, DIR/ablation.csv / .md, DIR/report.html
+// Every artefact is kept; a re-run reuses what is finished and resumes what was interrupted. DIR/pipeline.json
+// records the inputs of every stage (the evidence that evaluation scenes fed no training).
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lrf/finetune/encoder_finetune.h"
+
+namespace lrf {
+
+struct PipelineOptions {
+  std::vector<std::string> train_scenes, eval_scenes;
+  std::string autoencoder = "taef2", out, lpips_weights, cache_dir;
+  int max_side = 640;               // every scene's images are downscaled to fit (integer factor)
+  EncoderFinetuneOptions stage1;    // steps, batch, lambdas, learning rate (scenes and paths are set here)
+  int64_t field_iters = 3000;       // Stage II iterations per latent field, and the rgb/8 baseline's
+  int64_t stage3_steps = 300;
+  double stage3_lr = 0;             // 0: the decoder fine-tuning's default
+  int stage3_crop = 0;              // 0: the decoder fine-tuning's default
+  uint64_t seed = 0;
+  bool rgb_baseline = true;
+};
+
+// The ablation rows, in table order.
+const std::vector<std::string>& ablation_rows();  // rgb/8, stock, encoder, decoder, both
+
+// Runs (or reuses) every step; returns the summary written to DIR/pipeline.json.
+nlohmann::json run_pipeline(const PipelineOptions& options);
+
+// Throws lrf::Error if any evaluation scene is (the same folder as) a training scene.
+void check_no_overlap(const std::vector<std::string>& train_scenes, const std::vector<std::string>& eval_scenes);
+
+}  // namespace lrf

@@ -1,0 +1,88 @@
+// lrf pipeline on tiny synthetic scenes: every artefact and table is written, evaluation scenes feed no
+// training stage (asserted from the stages' own records), and a re-run reuses everything.
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "lrf/core/atomic_file.h"
+#include "lrf/core/error.h"
+#include "lrf/core/run_info.h"
+#include "lrf/pipeline/pipeline.h"
+#include "test_helpers.h"
+
+namespace fs = std::filesystem;
+using lrf::test::error_of;
+
+namespace {
+
+lrf::PipelineOptions tiny_pipeline(const std::string& out) {
+  lrf::PipelineOptions o;
+  o.train_scenes = {lrf::test::synthetic_scene()};
+  o.eval_scenes = {lrf::test::synthetic_scene({8, "64x48", 11, 800})};
+  o.autoencoder = lrf::test::shared_dir() + "/models/taef2";
+  o.out = out;
+  o.cache_dir = "";
+  o.max_side = 0;
+  o.stage1.steps = 3;
+  o.stage1.batch.crop = 48;
+  o.stage1.lr = 1e-4;
+  o.field_iters = 60;
+  o.stage3_steps = 3;
+  return o;
+}
+
+std::vector<std::string> strings(const nlohmann::json& a) {
+  std::vector<std::string> v;
+  for (const auto& s : a) v.push_back(s.get<std::string>());
+  return v;
+}
+
+TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
+  lrf::test::TempDir dir("pipeline");
+  lrf::PipelineOptions o = tiny_pipeline(dir / "run");
+  lrf::run_pipeline(o);
+  for (const char* f : {"ablation.csv", "ablation.md", "report.html", "pipeline.json", "stage1/encoder.safetensors",
+                        "stage3/decoder-stock.safetensors", "stage3/decoder-ft.safetensors"}) {
+    EXPECT_TRUE(fs::exists(dir / ("run/" + std::string(f)))) << f;
+  }
+  const std::string csv = lrf::read_file(dir / "run/ablation.csv");
+  for (const auto& row : lrf::ablation_rows()) EXPECT_NE(csv.find("," + row + ","), std::string::npos) << row;
+
+  // No leakage: what Stage I and both Stage III runs were trained on, from their own records, never
+  // includes an evaluation scene, and is exactly the training scenes.
+  nlohmann::json rec = lrf::read_json_file(dir / "run/pipeline.json");
+  const auto eval = strings(rec["options"]["eval_scenes"]);
+  const auto train = strings(rec["options"]["train_scenes"]);
+  const auto stage1 = strings(lrf::read_json_file(dir / "run/stage1/encoder.json")["options"]["scenes"]);
+  ASSERT_EQ(stage1.size(), 1u);
+  EXPECT_EQ(fs::weakly_canonical(stage1[0]), fs::weakly_canonical(train[0]));
+  for (const char* stage : {"stage1", "stage3_stock", "stage3_ft"}) {
+    const auto used = strings(rec["trained_on"][stage]);
+    EXPECT_FALSE(used.empty()) << stage;
+    for (const auto& u : used) {
+      for (const auto& e : eval) EXPECT_NE(fs::weakly_canonical(u), fs::weakly_canonical(e)) << stage;
+    }
+  }
+
+  // A second run reuses every artefact: nothing is retrained (the files keep their times).
+  const auto enc_time = fs::last_write_time(dir / "run/stage1/encoder.safetensors");
+  const auto dec_time = fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors");
+  lrf::run_pipeline(o);
+  EXPECT_EQ(fs::last_write_time(dir / "run/stage1/encoder.safetensors"), enc_time);
+  EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
+
+  // The same folder with other Stage I options is refused, not mixed.
+  lrf::PipelineOptions other = o;
+  other.stage1.lambda_corres = 3.0;
+  EXPECT_NE(error_of([&] { lrf::run_pipeline(other); }).find("other options"), std::string::npos);
+}
+
+TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {
+  lrf::test::TempDir dir("pipeline_overlap");
+  lrf::PipelineOptions o = tiny_pipeline(dir / "run");
+  o.eval_scenes = {o.train_scenes[0] + "/."};
+  EXPECT_NE(error_of([&] { lrf::run_pipeline(o); }).find("both a training and an evaluation scene"), std::string::npos);
+  EXPECT_FALSE(fs::exists(dir / "run/stage1"));
+}
+
+}  // namespace
