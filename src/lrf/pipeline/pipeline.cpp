@@ -12,6 +12,7 @@
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
 #include "lrf/field/compare.h"
+#include "lrf/field/latent_cache.h"
 #include "lrf/field/latent_run.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
@@ -51,14 +52,24 @@ struct Paths {
 
 void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const std::string& dir,
                          const std::string& encoder) {
+  const int downscale = downscale_for_max_side(scene, "", o.max_side);
   if (run_finished(dir)) {
+    // Reused only if it is the field this pipeline would train: same scene, resolution, model, length, seed.
+    const nlohmann::json config = read_json_file((fs::path(dir) / "config.json").string());
+    const nlohmann::json& r = config.at("options");
+    if (canonical(r.value("scene", std::string())) != canonical(scene) || r.value("downscale", 0) != downscale ||
+        r.value("iters", int64_t(0)) != o.field_iters || r.value("seed", uint64_t(0)) != o.seed ||
+        config.value("autoencoder_identity", std::string()) != autoencoder_identity(o.autoencoder, encoder)) {
+      fail((fs::path(dir) / "config.json").string(), "this field was trained with other options than the pipeline's; "
+                                                     "use another output folder or remove " + dir);
+    }
     log_info("reusing latent field " + dir);
     return;
   }
   LatentTrainOptions l;
   l.scene = scene;
   l.out = dir;
-  l.downscale = downscale_for_max_side(scene, "", o.max_side);
+  l.downscale = downscale;
   l.autoencoder = o.autoencoder;
   l.encoder = encoder;
   l.cache_dir = o.cache_dir;
@@ -93,7 +104,11 @@ void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
   e.seed = o.seed;
   const std::string record = finetune_record_path(e.out);
   if (fs::exists(e.out) && fs::exists(record)) {
-    if (read_json_file(record).value("options", nlohmann::json()) != encoder_finetune_options_json(e)) {
+    // The checkpoint interval does not change the result.
+    nlohmann::json recorded = read_json_file(record).value("options", nlohmann::json()), wanted = encoder_finetune_options_json(e);
+    recorded.erase("checkpoint_every");
+    wanted.erase("checkpoint_every");
+    if (recorded != wanted) {
       fail(record, "the Stage I encoder in this folder was made with other options; use another output folder or "
                    "remove " + fs::path(e.out).parent_path().string());
     }
