@@ -1,11 +1,13 @@
 #include "harness.h"
 
+#include <filesystem>
 #include <stdexcept>
 
 #include "lrf/align/correspondences.h"
 #include "lrf/core/error.h"
 #include "lrf/core/npy.h"
 #include "lrf/scene/colmap_model.h"
+#include "lrf/scene/raw_scene.h"
 
 namespace lrf::fuzz {
 namespace {
@@ -33,31 +35,44 @@ void colmap(const std::string& bytes, bool text) {
   }
 }
 
+// transforms.json with a stand-in file system: every named image exists, at 64 x 48 pixels.
+void transforms(const std::string& bytes) {
+  TransformsImages images;
+  images.resolve = [](const std::string& rel) {
+    std::string p = std::filesystem::path(rel).lexically_normal().string();
+    if (p.empty()) throw std::logic_error("parse_transforms passed an empty file_path");
+    return p;
+  };
+  images.size = [](const std::string&) { return cv::Size(64, 48); };
+  RawScene raw;
+  std::vector<std::string> names;
+  parse_transforms(bytes, "fuzz", images, &raw, &names);
+  if (raw.views.empty() || names.size() != raw.views.size()) throw std::logic_error("parse_transforms: no views");
+  common_images_dir(raw.views);
+}
+
 }  // namespace
 
-const std::vector<std::string>& target_names() {
-  static const std::vector<std::string> names = {"colmap_bin", "colmap_txt", "npy", "correspondences"};
+const std::vector<std::string>& plain_target_names() {
+  static const std::vector<std::string> names = {"colmap_bin", "colmap_txt", "npy", "correspondences", "transforms"};
   return names;
 }
 
-int run_target(const std::string& target, const uint8_t* data, size_t size) {
-  std::string bytes(reinterpret_cast<const char*>(data), size);
-  try {
-    if (target == "colmap_bin") {
-      colmap(bytes, false);
-    } else if (target == "colmap_txt") {
-      colmap(bytes, true);
-    } else if (target == "npy") {
-      parse_npy(bytes, "fuzz");
-    } else if (target == "correspondences") {
-      parse_correspondences(bytes, "fuzz");
-    } else {
-      throw std::logic_error("unknown fuzz target " + target);
-    }
-  } catch (const Error&) {
-    // A clean, reported refusal is the expected outcome for bad input.
+bool run_plain_target(const std::string& target, const std::string& bytes) {
+  if (target == "colmap_bin") {
+    colmap(bytes, false);
+  } else if (target == "colmap_txt") {
+    colmap(bytes, true);
+  } else if (target == "npy") {
+    parse_npy(bytes, "fuzz");
+  } else if (target == "correspondences") {
+    parse_correspondences(bytes, "fuzz");
+  } else if (target == "transforms") {
+    transforms(bytes);
+  } else {
+    return false;
   }
-  return 0;
+  return true;
 }
 
 }  // namespace lrf::fuzz

@@ -151,10 +151,34 @@ TEST(Pickle, RefusesDeepNesting) {
   for (int i = 0; i < 1000; ++i) p += "e";
   p += ".";
   expect_error([&] { unpickle(p); }, {"deeper than"});
-  // Self-appending a memoised list (a cycle) is bounded the same way.
+  // Self-appending a memoised list (a cycle, which would leak the value tree) is refused at once.
   std::string cycle = B("\x80\x02]q\x00");
   for (int i = 0; i < 200; ++i) cycle += B("h\x00" "a");
-  expect_error([&] { unpickle(cycle + "."); }, {"deeper than"});
+  expect_error([&] { unpickle(cycle + "."); }, {"holds itself"});
+  // So is adding to a list already placed in another one: the way to longer cycles, and to nesting
+  // deeper than the bound (each level added below an already-placed list).
+  expect_error([] { unpickle(B("\x80\x02]q\x00]h\x00" "a0K\x01" "a.")); }, {"already placed"});
+}
+
+TEST(Pickle, RefusesViewsExpandedFarBeyondTheirStorage) {
+  // _rebuild_tensor_v2(storage of 1 float, 0, (8192, 8192), (0, 0), False, OrderedDict()): 4 bytes that
+  // would become a 256 MB tensor when copied.
+  auto one_float = [](const lrf::pickle::Value&) {
+    auto v = std::make_shared<lrf::pickle::Value>();
+    v->kind = lrf::pickle::Value::Kind::tensor;
+    v->tensor = torch::ones({1});
+    return v;
+  };
+  auto view = [&](const std::string& size) {
+    return lrf::pickle::unpickle(B("\x80\x02" "ctorch._utils\n_rebuild_tensor_v2\n" "(NQK\x00") + size +
+                                     B("(K\x00K\x00t\x89" "ccollections\nOrderedDict\n)RtR."),
+                                 "test.pkl", one_float);
+  };
+  expect_error([&] { view(B("(M\x00\x20M\x00\x20t")); }, {"expands 1 stored elements to 67108864"});
+  // A modest expansion (a broadcast bias, say) stays readable.
+  auto ok = view(B("(K\x04K\x03t"));
+  ASSERT_EQ(ok->kind, lrf::pickle::Value::Kind::tensor);
+  EXPECT_EQ(ok->tensor.sizes().vec(), (std::vector<int64_t>{4, 3}));
 }
 
 TEST(Pickle, ParsesContainersAndScalars) {

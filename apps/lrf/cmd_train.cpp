@@ -117,7 +117,7 @@ int run_train(const TrainOptions& o) {
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
   if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
-  prepare_output_dir(o.out, o.force, o.resume);
+  const auto lock = prepare_output_dir(o.out, o.force, o.resume);
 
   const SceneOptions& so = o.scene_options;
   Scene scene = load_scene(o.scene, so);

@@ -11,6 +11,7 @@ namespace lrf {
 namespace {
 constexpr char kMagic[8] = {'L', 'R', 'F', 'C', 'O', 'R', 'R', '1'};
 constexpr uint32_t kMaxHeader = 64u << 20;
+constexpr int64_t kMaxImageSide = 1 << 16;
 
 template <typename T>
 void put(std::string* out, T v) {
@@ -57,8 +58,18 @@ CorrespondenceSet parse_correspondences(const std::string& bytes, const std::str
     set.scene = h.at("scene").get<std::string>();
     set.source = h.at("source").get<std::string>();
     set.view_names = h.at("views").get<std::vector<std::string>>();
-    set.widths = h.at("widths").get<std::vector<int>>();
-    set.heights = h.at("heights").get<std::vector<int>>();
+    // Image sizes: integers in range (get<int> from a float such as 2.4e25 would be undefined behaviour).
+    for (auto [key, out] : {std::pair<const char*, std::vector<int>*>{"widths", &set.widths}, {"heights", &set.heights}}) {
+      const auto& list = h.at(key);
+      if (!list.is_array()) fail(path, std::string("header: \"") + key + "\" is not a list");
+      for (const auto& v : list) {
+        if (!v.is_number_integer() || v.get<int64_t>() < 1 || v.get<int64_t>() > kMaxImageSide)
+          fail(path, std::string("header: \"") + key + "\" holds a value that is not a size of 1 to " +
+                         std::to_string(kMaxImageSide) + " pixels");
+        out->push_back(static_cast<int>(v.get<int64_t>()));
+      }
+    }
+    if (!h.at("pairs").is_number_unsigned()) fail(path, "header: \"pairs\" is not a count");
     npairs = h.at("pairs").get<uint64_t>();
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("corrupt correspondence header: ") + e.what());

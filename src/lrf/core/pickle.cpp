@@ -4,6 +4,7 @@
 #include <cstring>
 #include <limits>
 #include <unordered_map>
+#include <unordered_set>
 
 #include <torch/torch.h>
 
@@ -20,6 +21,9 @@ constexpr std::size_t kMaxDims = 16;
 // Nesting bound: a state dict nests 3-4 levels; unbounded nesting would overflow the stack when the
 // value tree is destroyed.
 constexpr int kMaxDepth = 100;
+// Element bounds of a tensor view: any view, and one with more elements than its storage holds.
+constexpr std::int64_t kMaxViewElements = std::int64_t{1} << 48;
+constexpr std::int64_t kMaxExpandedElements = std::int64_t{1} << 24;
 
 struct StorageType {
   const char* name;
@@ -140,14 +144,14 @@ class Unpickler {
         }
         case 'a': {  // APPEND
           Ref item = pop();
-          Ref list = expect(top(), Value::Kind::list, "APPEND");
+          Ref list = mutable_container(top(), Value::Kind::list, "APPEND");
           nest(*list, {item});
           list->items.push_back(item);
           break;
         }
         case 'e': {  // APPENDS
           auto items = pop_mark();
-          Ref list = expect(top(), Value::Kind::list, "APPENDS");
+          Ref list = mutable_container(top(), Value::Kind::list, "APPENDS");
           nest(*list, items);
           list->items.insert(list->items.end(), items.begin(), items.end());
           break;
@@ -162,12 +166,12 @@ class Unpickler {
         case 's': {  // SETITEM
           Ref value = pop();
           Ref key = pop();
-          set_items(*expect(top(), Value::Kind::dict, "SETITEM"), {key, value});
+          set_items(*mutable_container(top(), Value::Kind::dict, "SETITEM"), {key, value});
           break;
         }
         case 'u': {  // SETITEMS
           auto items = pop_mark();
-          set_items(*expect(top(), Value::Kind::dict, "SETITEMS"), items);
+          set_items(*mutable_container(top(), Value::Kind::dict, "SETITEMS"), items);
           break;
         }
         case 'q': memo_put(u8()); break;                 // BINPUT
@@ -278,12 +282,23 @@ class Unpickler {
     v->text.assign(reinterpret_cast<const char*>(take(static_cast<std::size_t>(n))), static_cast<std::size_t>(n));
     push(v);
   }
-  // Records that `children` go into `container`, refusing excessive nesting.
+  // A list or dict that items are added to. One that already sits inside another container is refused:
+  // the pickler fills a container before placing it, so only recursive structures (never in a state
+  // dict) do this, and refusing them keeps the value tree acyclic (no leak) and its depth exact.
+  Ref mutable_container(const Ref& v, Value::Kind kind, const char* op) {
+    expect(v, kind, op);
+    if (contained_.count(v.get()))
+      bad(std::string("malformed pickle: ") + op + " on a container already placed in another (recursive objects are not supported)");
+    return v;
+  }
+  // Records that `children` go into `container`, refusing excessive nesting and self-containment.
   void nest(Value& container, const std::vector<Ref>& children) {
     for (const auto& c : children) {
+      if (c.get() == &container) bad("malformed pickle: a container holds itself");
       container.depth = std::max(container.depth, c->depth + 1);
       if (container.depth > kMaxDepth) bad("pickle nests containers deeper than " + std::to_string(kMaxDepth));
     }
+    for (const auto& c : children) contained_.insert(c.get());
   }
   void set_items(Value& dict, const std::vector<Ref>& kv) {
     if (kv.size() % 2) bad("malformed pickle: odd number of dict items");
@@ -344,6 +359,22 @@ class Unpickler {
         last += (size[i] - 1) * stride[i];
       }
     }
+    // Stride-0 dimensions (expanded tensors) can make a view larger than its storage: bound the element
+    // count so that a few bytes cannot turn into a multi-GB tensor when the view is copied.
+    if (!empty) {
+      std::int64_t count = 1;
+      for (auto s : size) {
+        if (s > kMaxViewElements / count) {
+          bad("tensor view of size " + std::string(c10::str(at::IntArrayRef(size))) + " has more than " +
+              std::to_string(kMaxViewElements) + " elements and only " + std::to_string(numel) + " stored");
+        }
+        count *= s;
+      }
+      if (count > numel && count > kMaxExpandedElements) {
+        bad("tensor view of size " + std::string(c10::str(at::IntArrayRef(size))) + " expands " +
+            std::to_string(numel) + " stored elements to " + std::to_string(count));
+      }
+    }
     auto v = make(Value::Kind::tensor);
     v->tensor = empty ? torch::empty(size, storage.options()) : storage.as_strided(size, stride, offset);
     return v;
@@ -374,6 +405,7 @@ class Unpickler {
   std::vector<Ref> stack_;
   std::vector<std::size_t> marks_;
   std::unordered_map<std::uint64_t, Ref> memo_;
+  std::unordered_set<const Value*> contained_;  // values placed in a container (kept alive by it)
   std::size_t objects_ = 0;
 };
 

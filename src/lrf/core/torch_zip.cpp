@@ -8,9 +8,10 @@
 #include "lrf/core/zip_reader.h"
 
 namespace lrf {
+namespace {
 
-pickle::Ref read_torch_zip(const std::string& path) {
-  ZipReader zip(path);
+pickle::Ref read_archive(ZipReader& zip) {
+  const std::string& path = zip.path();
   // The archive's single root folder is named after the file at save time: find it via data.pkl.
   const ZipReader::Entry* pkl = nullptr;
   for (const auto& e : zip.entries()) {
@@ -69,9 +70,8 @@ pickle::Ref read_torch_zip(const std::string& path) {
   return pickle::unpickle(bytes, path + ":" + pkl->name, persistent_load);
 }
 
-StateDict read_torch_state_dict(const std::string& path) {
+StateDict state_dict_of(const pickle::Ref& root, const std::string& path) {
   using K = pickle::Value::Kind;
-  pickle::Ref root = read_torch_zip(path);
   if (root->kind != K::dict) fail(path, "checkpoint does not hold a dict of tensors");
   const pickle::Value* dict = root.get();
   for (const auto& [k, v] : root->entries) {
@@ -85,6 +85,24 @@ StateDict read_torch_state_dict(const std::string& path) {
   }
   if (out.is_empty()) fail(path, "checkpoint holds no tensors");
   return out;
+}
+
+}  // namespace
+
+pickle::Ref read_torch_zip(const std::string& path) {
+  ZipReader zip(path);
+  return read_archive(zip);
+}
+
+StateDict read_torch_state_dict(const std::string& path) { return state_dict_of(read_torch_zip(path), path); }
+
+pickle::Ref parse_torch_zip(const std::string& bytes, const std::string& name) {
+  ZipReader zip(std::make_unique<MemorySource>(bytes, name));
+  return read_archive(zip);
+}
+
+StateDict parse_torch_state_dict(const std::string& bytes, const std::string& name) {
+  return state_dict_of(parse_torch_zip(bytes, name), name);
 }
 
 }  // namespace lrf

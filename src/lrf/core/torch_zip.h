@@ -14,5 +14,8 @@ pickle::Ref read_torch_zip(const std::string& path);
 // The state dict in a checkpoint: the root dict, or root["state_dict"] when present; entries whose
 // values are not tensors are skipped. Throws lrf::Error if there is no tensor at all.
 StateDict read_torch_state_dict(const std::string& path);
+// Same as the two above, from the archive's bytes already in memory (`name` is used in error messages).
+pickle::Ref parse_torch_zip(const std::string& bytes, const std::string& name);
+StateDict parse_torch_state_dict(const std::string& bytes, const std::string& name);
 
 }  // namespace lrf

@@ -18,7 +18,10 @@ constexpr std::uint64_t kMaxEntries = 1u << 20;
 
 }  // namespace
 
-ZipReader::ZipReader(const std::string& path) : path_(path), src_(std::make_unique<FileSource>(path)) {
+ZipReader::ZipReader(const std::string& path) : ZipReader(std::make_unique<FileSource>(path)) {}
+
+ZipReader::ZipReader(std::unique_ptr<ByteSource> source) : path_(source->name()), src_(std::move(source)) {
+  const std::string& path = path_;
   const std::uint64_t size = src_->size();
   if (size < 22) fail(path, "not a zip archive (too short to be a PyTorch checkpoint)");
   // The end-of-central-directory record is in the last 22 + 65535 (comment) bytes.

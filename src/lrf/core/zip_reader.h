@@ -22,6 +22,8 @@ class ZipReader {
 
   // Throws lrf::Error if the file is not a zip archive.
   explicit ZipReader(const std::string& path);
+  // Same, over any byte source (e.g. a MemorySource over bytes already in memory); path() is its name.
+  explicit ZipReader(std::unique_ptr<ByteSource> source);
   const std::vector<Entry>& entries() const { return entries_; }
   const Entry* find(const std::string& name) const;
   // Copies an entry's bytes into dst, which must hold entry.size bytes.
@@ -32,7 +34,7 @@ class ZipReader {
  private:
   std::uint64_t data_offset(const Entry& entry);
   std::string path_;
-  std::unique_ptr<FileSource> src_;
+  std::unique_ptr<ByteSource> src_;
   std::vector<Entry> entries_;
 };
 

@@ -33,7 +33,7 @@ void train_rgb_at_latent_resolution(const std::string& scene_root, const SceneOp
   SceneOptions so = so_in;
   so.crop_to_multiple_of_8 = true;
   Scene scene = load_scene(scene_root, so);
-  prepare_output_dir(out, true, resume);
+  const auto lock = prepare_output_dir(out, true, resume);
   std::vector<TrainView> views;
   for (int i : scene.train_indices) {
     const View& v = scene.views[static_cast<size_t>(i)];

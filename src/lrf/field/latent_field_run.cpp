@@ -13,6 +13,7 @@
 #include "lrf/eval/metrics.h"
 #include "lrf/eval/scores.h"
 #include "lrf/field/latent_cache.h"
+#include "lrf/field/latent_config.h"
 #include "lrf/field/latent_field.h"
 #include "lrf/field/latent_run.h"
 #include "lrf/splat/field_run.h"
@@ -25,7 +26,7 @@ namespace lrf {
 bool is_latent_run(const std::string& out) {
   const std::string path = (fs::path(out) / "config.json").string();
   if (!fs::exists(path)) return false;
-  return read_json_file(path).value("space", std::string("rgb")) == "latent";
+  return splat::config_space(read_json_file(path), path) == "latent";
 }
 
 LatentRun open_latent_run(const std::string& out) {
@@ -34,28 +35,22 @@ LatentRun open_latent_run(const std::string& out) {
   const std::string config_path = (fs::path(out) / "config.json").string();
   if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
   run.config = read_json_file(config_path);
-  std::string scene_root, identity;
-  try {
-    if (run.config.at("space").get<std::string>() != "latent") fail(config_path, "not a latent field");
-    scene_root = run.config.at("scene").get<std::string>();
-    run.autoencoder = run.config.at("autoencoder").get<std::string>();
-    run.encoder = run.config.value("encoder", std::string());
-    identity = run.config.at("autoencoder_identity").get<std::string>();
-    run.render.sh_degree = run.config.at("sh_degree").get<int>();
-    run.render.mip = false;
-    run.render.background = torch::tensor(run.config.at("background").get<std::vector<float>>());
-    run.range = LatentRange::from_json(run.config.at("latent_range"), config_path);
-  } catch (const nlohmann::json::exception& e) {
-    fail(config_path, std::string("missing or bad latent field settings: ") + e.what());
-  }
+  const LatentConfig c = parse_latent_config(run.config, config_path);
+  run.autoencoder = c.autoencoder;
+  run.encoder = c.encoder;
+  run.render.sh_degree = c.field.sh_degree;
+  run.render.mip = false;
+  run.render.background = torch::tensor(c.field.background);
+  run.range = c.range;
   // The field only makes sense with the latent space it was fitted in.
   const std::string now = autoencoder_identity(run.autoencoder, run.encoder);
-  if (now != identity) {
-    fail(config_path, "the autoencoder's files changed since training (was " + identity + ", now " + now +
+  if (now != c.identity) {
+    fail(config_path, "the autoencoder's files changed since training (was " + c.identity + ", now " + now +
                           "): retrain, or restore the weights");
   }
-  run.scene = load_scene(scene_root, splat::scene_options_from_config(run.config, config_path));
-  auto res = run.config.value("resolution", std::vector<int>{});
+  run.scene = load_scene(c.field.scene_root, c.field.scene);
+  if (run.scene.views.empty()) fail(config_path, "the scene has no views");
+  const auto& res = c.resolution;
   if (res.size() == 2 && (res[0] != run.scene.views[0].camera.width || res[1] != run.scene.views[0].camera.height)) {
     fail(config_path, "the scene's images changed resolution since training");
   }
@@ -130,9 +125,13 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   metrics["render_fps"] = n / std::max(render_seconds, 1e-9);
   metrics["decode_fps"] = n / std::max(decode_seconds, 1e-9);
   metrics["decoder"] = o.decoder.empty() ? "stock" : o.decoder;
-  if (run.config.contains("result")) {
-    metrics["train_seconds"] = run.config["result"].value("seconds", 0.0);
-    metrics["peak_memory_mb"] = run.config["result"].value("peak_memory_mb", 0.0);
+  if (run.config.contains("result") && run.config["result"].is_object()) {
+    const auto& result = run.config["result"];
+    auto number = [&](const char* key) {
+      return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
+    };
+    metrics["train_seconds"] = number("seconds");
+    metrics["peak_memory_mb"] = number("peak_memory_mb");
   }
   std::error_code ec;
   metrics["storage_mb"] = double(fs::file_size(fs::path(out) / "point_cloud.ply", ec)) / (1 << 20);

@@ -33,7 +33,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
   LatentInit init = parse_latent_init(o.init);
-  prepare_output_dir(o.out, o.force, o.resume);
+  const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
 
   SceneOptions so;
   so.images_dir = o.images;

@@ -2,7 +2,14 @@
 
 #include <cmath>
 
+#include "lrf/scene/raw_scene.h"
+
 namespace lrf {
+
+void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center) {
+  cam->R = R_c2w.transpose();
+  cam->t = -cam->R * center;
+}
 
 Eigen::Matrix4d Camera::world_to_camera() const {
   Eigen::Matrix4d m = Eigen::Matrix4d::Identity();

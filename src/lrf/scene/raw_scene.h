@@ -2,6 +2,7 @@
 // What each format reader produces before the common steps (resolution choice, undistortion, crop,
 // split): views with cameras at their nominal resolution (the one the poses file describes) and
 // observations in that resolution's distorted pixel coordinates.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,20 @@ struct RawScene {
 RawScene read_colmap_scene(const std::string& root);
 RawScene read_llff_scene(const std::string& root, const std::string& images_dir);
 RawScene read_nerf_scene(const std::string& root);
+
+// The file-system side of reading a transforms.json: `resolve` maps a frame's "file_path" (without a
+// leading "./", never empty) to the image path relative to the scene root, throwing lrf::Error if there is
+// none; `size` gives an image's size when neither the frame nor the file states "w" and "h".
+struct TransformsImages {
+  std::function<std::string(const std::string& file_path)> resolve;
+  std::function<cv::Size(const std::string& image_rel)> size;
+};
+// Appends the frames of a transforms.json (NeRF synthetic, instant-ngp, nerfstudio) given as text
+// (`path` names it in errors) to raw->views, and their names to *names when given.
+void parse_transforms(const std::string& text, const std::string& path, const TransformsImages& images,
+                      RawScene* raw, std::vector<std::string>* names);
+// The images folder of a NeRF scene: the common first path component of the views' files ("" if none).
+std::string common_images_dir(const std::vector<RawView>& views);
 
 // Builds the world-to-camera part of a Camera from an OpenCV camera-to-world matrix.
 void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center);

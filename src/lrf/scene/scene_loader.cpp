@@ -21,11 +21,6 @@ namespace lrf {
 
 std::string find_sparse_dir(const std::string& root);
 
-void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center) {
-  cam->R = R_c2w.transpose();
-  cam->t = -cam->R * center;
-}
-
 std::vector<std::string> list_images(const std::string& dir) {
   std::vector<std::string> names;
   std::error_code ec;

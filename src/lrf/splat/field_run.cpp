@@ -27,39 +27,18 @@ nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o
   return j;
 }
 
-SceneOptions scene_options_from_config(const nlohmann::json& c, const std::string& path) {
-  SceneOptions o;
-  try {
-    o.images_dir = c.at("images").get<std::string>();
-    o.downscale = c.at("downscale").get<int>();
-    o.crop_to_multiple_of_8 = c.value("crop_to_multiple_of_8", false);
-    o.test_every = c.at("test_every").get<int>();
-    o.test_list = c.value("test_list", std::string());
-    o.format = c.value("scene_format", std::string());
-  } catch (const nlohmann::json::exception& e) {
-    fail(path, std::string("missing or bad scene settings: ") + e.what());
-  }
-  return o;
-}
-
 FieldRun open_field_run(const std::string& out) {
   FieldRun run;
   run.out = out;
   const std::string config_path = (fs::path(out) / "config.json").string();
   if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
   run.config = read_json_file(config_path);
-  std::string scene_root;
-  try {
-    scene_root = run.config.at("scene").get<std::string>();
-    const auto space = run.config.value("space", std::string("rgb"));
-    if (space != "rgb") fail(config_path, "space '" + space + "' cannot be rendered as RGB by this command yet");
-    run.render.sh_degree = run.config.at("sh_degree").get<int>();
-    run.render.mip = run.config.at("mip").get<bool>();
-    run.render.background = torch::tensor(run.config.at("background").get<std::vector<float>>());
-  } catch (const nlohmann::json::exception& e) {
-    fail(config_path, std::string("missing or bad field settings: ") + e.what());
-  }
-  run.scene = load_scene(scene_root, scene_options_from_config(run.config, config_path));
+  const FieldConfig c = parse_field_config(run.config, config_path);
+  if (c.space != "rgb") fail(config_path, "space '" + c.space + "' cannot be rendered as RGB by this command yet");
+  run.render.sh_degree = c.sh_degree;
+  run.render.mip = c.mip;
+  run.render.background = torch::tensor(c.background);
+  run.scene = load_scene(c.scene_root, c.scene);
   const std::string ply = (fs::path(out) / "point_cloud.ply").string();
   if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
   run.field = read_ply(ply);

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/scene/scene.h"
+#include "lrf/splat/field_config.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/render_field.h"
 
@@ -21,7 +22,6 @@ struct FieldRun {
 
 // The keys of config.json that describe how to reload the scene and render the field.
 nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& options, const Scene& scene);
-SceneOptions scene_options_from_config(const nlohmann::json& config, const std::string& config_path);
 
 // Throws lrf::Error naming the file when config.json or point_cloud.ply is missing or inconsistent.
 FieldRun open_field_run(const std::string& out);

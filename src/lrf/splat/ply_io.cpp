@@ -59,9 +59,10 @@ void write_ply(const std::string& path, const Gaussians& g) {
   write_file_atomic(path, bytes);
 }
 
-Gaussians read_ply(const std::string& path, int channels) {
+Gaussians read_ply(const std::string& path, int channels) { return parse_ply(read_file(path), path, channels); }
+
+Gaussians parse_ply(const std::string& bytes, const std::string& path, int channels) {
   if (!little_endian_host()) fail(path, "reading .ply needs a little-endian host");
-  const std::string bytes = read_file(path);
   const size_t end = bytes.find("end_header\n");
   if (bytes.compare(0, 4, "ply\n") != 0 || end == std::string::npos)
     fail(path, "not a .ply file (missing 'ply' magic or 'end_header')");
@@ -134,7 +135,9 @@ Gaussians read_ply(const std::string& path, int channels) {
     fail(path, "header announces " + std::to_string(count) + " vertices but the file holds only " +
                    std::to_string(available / (p * sizeof(float))) + " (truncated?)");
   auto table = torch::empty({count, static_cast<int64_t>(p)}, torch::kFloat32);
-  std::memcpy(table.data_ptr<float>(), bytes.data() + data_start, static_cast<size_t>(table.numel()) * sizeof(float));
+  // An empty field (0 vertices) has no data pointer to copy to (memcpy to null is undefined even for 0 bytes).
+  if (table.numel() > 0)
+    std::memcpy(table.data_ptr<float>(), bytes.data() + data_start, static_cast<size_t>(table.numel()) * sizeof(float));
 
   Gaussians g;
   g.max_sh_degree = degree;

@@ -15,5 +15,7 @@ void write_ply(const std::string& path, const Gaussians& g);
 // channels. Throws lrf::Error naming the file on a bad header, missing or unexpected properties, or a
 // size that disagrees with the file length.
 Gaussians read_ply(const std::string& path, int channels = 0);
+// Same, from the file's bytes already in memory (`name` is used in error messages).
+Gaussians parse_ply(const std::string& bytes, const std::string& name, int channels = 0);
 
 }  // namespace lrf::splat

@@ -244,7 +244,10 @@ void backward_impl(int64_t n, const RasterInputs& in, const RasterBackwardInputs
     std::vector<float> grad_pixels(static_cast<size_t>(kTileStorage) * C), dcol_buf(5 * C + 4);
     float* dcol = dcol_buf.data();
     while (reinterpret_cast<uintptr_t>(dcol) % 16) ++dcol;
-#pragma omp for schedule(dynamic)
+    // Tiles dealt round-robin, not dynamically: which thread's buffer a tile's gradients land in (and so
+    // the rounding of the sums below) must not depend on timing, or two runs of one seed would differ
+    // (and a run resumed from a checkpoint would not reach the uninterrupted run's result).
+#pragma omp for schedule(static, 1)
     for (int tile = 0; tile < tiles; ++tile) backward_tile<kC>(tile, in, bin, buf, grad_pixels.data(), dcol);
   }
 #pragma omp parallel for schedule(static)

@@ -37,17 +37,23 @@ std::string log_rows_until(const std::string& path, int64_t step) {
 
 std::string checkpoint_path(const std::string& out) { return (fs::path(out) / "checkpoint.pt").string(); }
 
-void prepare_output_dir(const std::string& out, bool force, bool resume) {
+FolderLock prepare_output_dir(const std::string& out, bool force, bool resume) {
   std::error_code ec;
   if (fs::exists(out) && !fs::is_directory(out)) fail(out, "exists and is not a folder");
-  const bool non_empty = fs::exists(out) && !fs::is_empty(out);
+  if (resume && !fs::exists(checkpoint_path(out)))
+    fail(checkpoint_path(out), "--resume: no checkpoint to resume from");
+  fs::create_directories(out, ec);
+  if (ec) fail(out, "cannot create folder: " + ec.message());
+  // Locked before anything in it is looked at or removed: a job still writing it makes this one stop here.
+  FolderLock lock(out);
+  bool non_empty = false;
+  for (const auto& e : fs::directory_iterator(out)) non_empty = non_empty || e.path().filename() != ".lock";
   if (non_empty && !force && !resume)
     fail(out, "output folder exists; pass --resume to continue its run or --force to overwrite it");
   if (resume && !fs::exists(checkpoint_path(out)))
     fail(checkpoint_path(out), "--resume: no checkpoint to resume from");
   if (force && !resume) fs::remove(checkpoint_path(out), ec);
-  fs::create_directories(out, ec);
-  if (ec) fail(out, "cannot create folder: " + ec.message());
+  return lock;
 }
 
 RunSummary run_training(Trainer& trainer, const RunOptions& o) {
@@ -73,10 +79,12 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   const int64_t total = trainer.options().iterations;
   Progress progress(o.task, total, 2.0, trainer.steps_done());
   // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
+  // The log goes first: killed before the checkpoint is written, a resumed run drops the log's rows past
+  // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.
   auto save = [&]() {
+    write_file_atomic(log_path, kLogHeader + log_rows);
     trainer.save_checkpoint(ckpt);
     write_ply(ply_path, trainer.export_gaussians());
-    write_file_atomic(log_path, kLogHeader + log_rows);
   };
 
   RunSummary summary;

@@ -8,13 +8,15 @@
 #include <cstdint>
 #include <string>
 
+#include "lrf/core/folder_lock.h"
 #include "lrf/splat/trainer.h"
 
 namespace lrf::splat {
 
 // Refuses an existing non-empty OUT unless force or resume; creates it otherwise. With force (and no
-// resume) a stale checkpoint is removed so that the run starts afresh.
-void prepare_output_dir(const std::string& out, bool force, bool resume);
+// resume) a stale checkpoint is removed so that the run starts afresh. Returns the folder's lock (see
+// core/folder_lock.h): hold it for as long as the job writes OUT; a second job on OUT is refused.
+[[nodiscard]] FolderLock prepare_output_dir(const std::string& out, bool force, bool resume);
 
 std::string checkpoint_path(const std::string& out);
 

@@ -1,0 +1,67 @@
+#include "lrf/core/folder_lock.h"
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <utility>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include "lrf/core/error.h"
+
+namespace lrf {
+namespace {
+
+// The PID the holder wrote, or "" (the holder may not have written it yet).
+std::string holder_pid(int fd) {
+  char buf[32] = {0};
+  ssize_t n = ::pread(fd, buf, sizeof buf - 1, 0);
+  std::string s = n > 0 ? std::string(buf, static_cast<size_t>(n)) : "";
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  for (char c : s)
+    if (c < '0' || c > '9') return "";
+  return s;
+}
+
+}  // namespace
+
+std::string FolderLock::lock_file(const std::string& folder) { return (std::filesystem::path(folder) / ".lock").string(); }
+
+FolderLock::FolderLock(const std::string& folder) {
+  const std::string path = lock_file(folder);
+  // O_CLOEXEC: a program this process starts must not inherit (and outlive it holding) the lock.
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) fail(folder, std::string("cannot create the lock file .lock: ") + std::strerror(errno));
+  while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    if (errno == EINTR) continue;
+    const int err = errno;
+    const std::string pid = err == EWOULDBLOCK ? holder_pid(fd_) : "";
+    ::close(fd_);
+    fd_ = -1;
+    if (err != EWOULDBLOCK) fail(folder, std::string("cannot lock the output folder: ") + std::strerror(err));
+    fail(folder, "output folder is in use by another lrf job (" + (pid.empty() ? std::string("PID unknown") : "PID " + pid) +
+                     "); wait for it to finish or stop it, or choose another folder");
+  }
+  const std::string mine = std::to_string(::getpid()) + "\n";
+  if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, mine.data(), mine.size(), 0) != static_cast<ssize_t>(mine.size())) {
+    // The lock holds without the PID; only the message of a refused second job is poorer.
+  }
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing the last descriptor releases the lock
+}
+
+FolderLock::FolderLock(FolderLock&& other) noexcept : fd_(std::exchange(other.fd_, -1)) {}
+
+FolderLock& FolderLock::operator=(FolderLock&& other) noexcept {
+  if (this != &other) {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = std::exchange(other.fd_, -1);
+  }
+  return *this;
+}
+
+}  // namespace lrf

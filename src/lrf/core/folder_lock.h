@@ -1,0 +1,26 @@
+#pragma once
+// An exclusive lock on an output folder for as long as a job writes it: flock(2) on FOLDER/.lock, so the
+// kernel releases it when the process ends in any way (kill -9 included) and a stale lock never blocks a
+// later run. The holder writes its PID into the file; a second job is refused with an error naming the
+// folder and that PID.
+#include <string>
+
+namespace lrf {
+
+class FolderLock {
+ public:
+  // Creates FOLDER/.lock if needed (the folder must exist) and takes the lock, or throws lrf::Error.
+  explicit FolderLock(const std::string& folder);
+  ~FolderLock();
+  FolderLock(FolderLock&& other) noexcept;
+  FolderLock& operator=(FolderLock&& other) noexcept;
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+  static std::string lock_file(const std::string& folder);
+
+ private:
+  int fd_ = -1;
+};
+
+}  // namespace lrf
