@@ -109,8 +109,14 @@ void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
     recorded.erase("checkpoint_every");
     wanted.erase("checkpoint_every");
     if (recorded != wanted) {
-      fail(record, "the Stage I encoder in this folder was made with other options; use another output folder or "
-                   "remove " + fs::path(e.out).parent_path().string());
+      std::string differ;
+      for (auto& [key, value] : wanted.items()) {
+        if (!recorded.contains(key) || recorded[key] != value) {
+          differ += " " + key + " (" + (recorded.contains(key) ? recorded[key].dump() : "none") + " vs " + value.dump() + ")";
+        }
+      }
+      fail(record, "the Stage I encoder in this folder was made with other options:" + differ +
+                       "; use another output folder or remove " + fs::path(e.out).parent_path().string());
     }
     log_info("reusing Stage I encoder " + e.out);
     return;
