@@ -49,6 +49,16 @@ TEST(CliLatent, TrainRenderEval) {
   }
   auto bad = lrf::test::run_lrf("eval '" + out + "' --scale 2");
   EXPECT_EQ(bad.exit_code, 1);
+
+  // --resume takes the recorded settings (space, autoencoder, SH degree...), not this command line's
+  // defaults: given without --space it still continues the latent field, to the new --iters.
+  auto resumed = lrf::test::run_lrf("train '" + scene + "' --resume --iters 80 --sh-degree 2 --cache-dir '" +
+                                    tmp.str() + "/cache' -o '" + out + "'");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  config = lrf::read_json_file(out + "/config.json");
+  EXPECT_EQ(config["space"], "latent");
+  EXPECT_EQ(config["sh_degree"], 0);
+  EXPECT_EQ(config["result"]["steps"], 80);
 }
 
 }  // namespace

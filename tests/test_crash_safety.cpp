@@ -18,6 +18,8 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/run_info.h"
+#include "lrf/finetune/decoder_finetune.h"
+#include "lrf/finetune/encoder_finetune.h"
 #include "test_helpers.h"
 
 extern char** environ;
@@ -96,6 +98,30 @@ TEST(FolderLock, TrainIntoALockedFolderIsRefused) {
   EXPECT_NE(r.output.find(out), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("PID " + std::to_string(::getpid())), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(fs::path(out) / "config.json")) << "the refused job wrote into the folder";
+}
+
+TEST(FolderLock, SingleFileJobsAreRefusedWhileTheirOutputIsLocked) {
+  lrf::test::TempDir dir("lock_file");
+  const std::string out = dir / "enc.safetensors";
+  const auto lock = lrf::FolderLock::for_output_file(out);
+  EXPECT_TRUE(fs::exists(out + ".lock"));
+  // Both fine-tuning jobs take the lock before touching anything, so the (missing) scene and fields
+  // are never reached and the refusal names the output file and this process.
+  lrf::EncoderFinetuneOptions enc;
+  enc.scenes = {dir / "no-such-scene"};
+  enc.out = out;
+  enc.force = true;
+  std::string msg = lrf::test::error_of([&] { lrf::finetune_encoder(enc); });
+  EXPECT_NE(msg.find("output file is in use by another lrf job (PID " + std::to_string(::getpid()) + ")"),
+            std::string::npos) << msg;
+  EXPECT_NE(msg.find(out), std::string::npos) << msg;
+  lrf::DecoderFinetuneOptions dec;
+  dec.fields = {dir / "no-such-field"};
+  dec.out = out;
+  dec.force = true;
+  msg = lrf::test::error_of([&] { lrf::finetune_decoder(dec); });
+  EXPECT_NE(msg.find("in use by another lrf job"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(out));
 }
 
 TEST(CrashSafety, KilledTrainingResumesToTheUninterruptedResult) {

@@ -74,7 +74,15 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   // The same folder with other Stage I options is refused, not mixed.
   lrf::PipelineOptions other = o;
   other.stage1.lambda_corres = 3.0;
-  EXPECT_NE(error_of([&] { lrf::run_pipeline(other); }).find("other options"), std::string::npos);
+  std::string msg = error_of([&] { lrf::run_pipeline(other); });
+  EXPECT_NE(msg.find("Stage I encoder in this folder was made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("lambda_corres"), std::string::npos) << msg;
+  // So are fields of another length (the rgb/8 baseline and latent fields alike).
+  other = o;
+  other.field_iters = o.field_iters + 1;
+  msg = error_of([&] { lrf::run_pipeline(other); });
+  EXPECT_NE(msg.find("the field in this folder was made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("iters (60 vs 61)"), std::string::npos) << msg;
 }
 
 TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {

@@ -141,7 +141,7 @@ TEST(Trainer, DivergenceIsReportedWithStepAndLastCheckpointKept) {
   auto scene = make_scene(3, 6, 24, 18);
   auto dir = (fs::temp_directory_path() / "lrf_test_diverge").string();
   fs::remove_all(dir);
-  prepare_output_dir(dir, false, false);
+  const auto lock = prepare_output_dir(dir, false, false);
   RunOptions ro;
   ro.out = dir;
   ro.checkpoint_every = 5;

@@ -78,7 +78,8 @@ nlohmann::json to_json(const TrainOptions& o) {
 }
 
 // --resume continues the run as it was started: every setting comes from OUT/config.json except the
-// ones given on this command line among --iters and --checkpoint-every.
+// ones given on this command line among --iters and --checkpoint-every (and, for latent runs, --cache-dir,
+// which only says where encoded views are kept).
 TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
   const std::string path = (std::filesystem::path(given.out) / "config.json").string();
   auto stored = lrf::read_json_file(path);
@@ -86,21 +87,28 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
   try {
     const auto& j = stored.at("options");
     o.scene = j.at("scene").get<std::string>();
-    o.space = j.at("space").get<std::string>();
+    o.space = stored.value("space", j.value("space", std::string("rgb")));
     o.scene_options.images_dir = j.at("images").get<std::string>();
     o.scene_options.downscale = j.at("downscale").get<int>();
     o.scene_options.test_every = j.at("test_every").get<int>();
-    o.scene_options.test_list = j.at("test_list").get<std::string>();
-    o.scene_options.format = j.at("format").get<std::string>();
-    o.scene_options.crop_to_multiple_of_8 = j.at("crop8").get<bool>();
     o.sh_degree = j.at("sh_degree").get<int>();
-    o.mip = j.at("mip").get<bool>();
+    o.sh_degree_set = true;
     o.seed = j.at("seed").get<uint64_t>();
     o.max_gaussians = j.at("max_gaussians").get<int64_t>();
     o.sparse_adam = j.at("sparse_adam").get<bool>();
-    o.white_background = j.at("white_background").get<bool>();
     if (!iters_given) o.iters = j.at("iters").get<int64_t>();
     if (!checkpoint_given) o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
+    if (o.space == "latent") {
+      o.autoencoder = j.at("autoencoder").get<std::string>();
+      o.encoder = j.at("encoder").get<std::string>();
+      o.init = j.at("init").get<std::string>();
+    } else {
+      o.scene_options.test_list = j.at("test_list").get<std::string>();
+      o.scene_options.format = j.at("format").get<std::string>();
+      o.scene_options.crop_to_multiple_of_8 = j.at("crop8").get<bool>();
+      o.mip = j.at("mip").get<bool>();
+      o.white_background = j.at("white_background").get<bool>();
+    }
   } catch (const nlohmann::json::exception& e) {
     lrf::fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
   }
@@ -211,7 +219,6 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_flag("--sparse-adam", o->sparse_adam, "Skip the Adam update of Gaussians no pixel reached this step (faster; Inria uses a dense Adam)");
   cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
   lrf::cli::on_run(cmd, [o, iters, checkpoint] {
-    if (o->space == "latent") return run_train_latent(*o);  // resumes with the options given
     if (!o->resume) return run_train(*o);
     return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0));
   });

@@ -29,20 +29,25 @@ std::string holder_pid(int fd) {
 
 std::string FolderLock::lock_file(const std::string& folder) { return (std::filesystem::path(folder) / ".lock").string(); }
 
-FolderLock::FolderLock(const std::string& folder) {
-  const std::string path = lock_file(folder);
+FolderLock::FolderLock(const std::string& folder) : FolderLock(lock_file(folder), folder, "output folder") {}
+
+FolderLock FolderLock::for_output_file(const std::string& output) {
+  return FolderLock(output + ".lock", output, "output file");
+}
+
+FolderLock::FolderLock(const std::string& path, const std::string& subject, const std::string& what) {
   // O_CLOEXEC: a program this process starts must not inherit (and outlive it holding) the lock.
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) fail(folder, std::string("cannot create the lock file .lock: ") + std::strerror(errno));
+  if (fd_ < 0) fail(subject, "cannot create the lock file " + path + ": " + std::strerror(errno));
   while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     if (errno == EINTR) continue;
     const int err = errno;
     const std::string pid = err == EWOULDBLOCK ? holder_pid(fd_) : "";
     ::close(fd_);
     fd_ = -1;
-    if (err != EWOULDBLOCK) fail(folder, std::string("cannot lock the output folder: ") + std::strerror(err));
-    fail(folder, "output folder is in use by another lrf job (" + (pid.empty() ? std::string("PID unknown") : "PID " + pid) +
-                     "); wait for it to finish or stop it, or choose another folder");
+    if (err != EWOULDBLOCK) fail(subject, "cannot lock the " + what + ": " + std::strerror(err));
+    fail(subject, what + " is in use by another lrf job (" + (pid.empty() ? std::string("PID unknown") : "PID " + pid) +
+                      "); wait for it to finish or stop it, or choose another one");
   }
   const std::string mine = std::to_string(::getpid()) + "\n";
   if (::ftruncate(fd_, 0) != 0 || ::pwrite(fd_, mine.data(), mine.size(), 0) != static_cast<ssize_t>(mine.size())) {

@@ -2,7 +2,8 @@
 // An exclusive lock on an output folder for as long as a job writes it: flock(2) on FOLDER/.lock, so the
 // kernel releases it when the process ends in any way (kill -9 included) and a stale lock never blocks a
 // later run. The holder writes its PID into the file; a second job is refused with an error naming the
-// folder and that PID.
+// folder and that PID. A job whose output is one file (OUT.safetensors beside OUT.json and its
+// checkpoint) locks OUT.lock instead, through for_output_file.
 #include <string>
 
 namespace lrf {
@@ -17,9 +18,15 @@ class FolderLock {
   FolderLock(const FolderLock&) = delete;
   FolderLock& operator=(const FolderLock&) = delete;
 
+  // Locks OUTPUT.lock (OUTPUT's folder must exist): for jobs that write one file and its companions.
+  static FolderLock for_output_file(const std::string& output);
+
   static std::string lock_file(const std::string& folder);
 
  private:
+  // subject: the folder or file named in errors; what: "output folder" or "output file".
+  FolderLock(const std::string& lock_path, const std::string& subject, const std::string& what);
+
   int fd_ = -1;
 };
 

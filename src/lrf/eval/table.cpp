@@ -91,6 +91,10 @@ Cell Cell::from_json(const nlohmann::json& value, int display_decimals) {
   return Cell(value.dump());
 }
 
+Cell Cell::number_in(const nlohmann::json& object, const char* key) {
+  return object.is_object() && object.contains(key) && object[key].is_number() ? Cell(object[key].get<double>()) : Cell();
+}
+
 int auto_decimals(double v, int significant) {
   if (!std::isfinite(v)) return -1;
   double a = std::fabs(v);

@@ -30,6 +30,8 @@ struct Cell {
   Cell(std::string s) : kind(Kind::text), text(std::move(s)) {}
   // null → missing, number → number, string → text; anything else is shown as its JSON text.
   static Cell from_json(const nlohmann::json& value, int display_decimals = -1);
+  // object[key] when the object has it as a number, else missing (for optional metrics).
+  static Cell number_in(const nlohmann::json& object, const char* key);
 
   bool missing() const { return kind == Kind::empty; }
 };

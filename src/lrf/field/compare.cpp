@@ -6,6 +6,7 @@
 
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
+#include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -119,10 +120,6 @@ std::string method_dir(const std::string& method) {
   return d;
 }
 
-Cell number(const nlohmann::json& m, const char* key) {
-  return m.contains(key) && m[key].is_number() ? Cell(m[key].get<double>()) : Cell();
-}
-
 }  // namespace
 
 nlohmann::json run_compare(const CompareOptions& o) {
@@ -130,6 +127,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
     if (m != "rgb/8" && m != "rgb/8-mip" && m != "latent") fail("unknown method '" + m + "' (rgb/8, rgb/8-mip, latent)");
   }
   fs::create_directories(o.out);
+  const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
   SceneOptions so;
   so.images_dir = o.images;
   so.downscale = o.downscale;
@@ -182,9 +180,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
   std::vector<Row> rows;
   for (const auto& method : o.methods) {
     const auto& m = all[method];
-    rows.push_back({method, number(m, "psnr"), number(m, "ssim"), number(m, "lpips"), number(m, "train_seconds"),
-                    number(m, "gaussians"), number(m, "storage_mb"), number(m, "render_fps"), number(m, "decode_fps"),
-                    number(m, "peak_memory_mb")});
+    Row row = {method};
+    for (size_t k = 1; k < header.size(); ++k) row.push_back(Cell::number_in(m, header[k].c_str()));
+    rows.push_back(std::move(row));
   }
   write_table_csv((fs::path(o.out) / "table.csv").string(), header, rows);
   write_table_markdown((fs::path(o.out) / "table.md").string(), header, rows);
@@ -217,7 +215,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
       ReportImage im{method, fs::exists(png) ? read_image_rgb(png) : cv::Mat(), {}};
       for (const auto& vj : all[method]["views"]) {
         if (vj.value("name", std::string()) == v.name) {
-          im.numbers = {{"PSNR", number(vj, "psnr")}, {"SSIM", number(vj, "ssim")}, {"LPIPS", number(vj, "lpips")}};
+          im.numbers = {{"PSNR", Cell::number_in(vj, "psnr")},
+                        {"SSIM", Cell::number_in(vj, "ssim")},
+                        {"LPIPS", Cell::number_in(vj, "lpips")}};
         }
       }
       rv.methods.push_back(im);

@@ -10,6 +10,7 @@
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
+#include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
@@ -97,6 +98,9 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");
   const std::string ckpt = decoder_checkpoint_path(o.out);
+  if (fs::path(o.out).has_parent_path()) fs::create_directories(fs::path(o.out).parent_path());
+  // Taken before the checks below so that a second job cannot remove or overwrite this one's checkpoint.
+  const auto lock = FolderLock::for_output_file(o.out);
   if (fs::exists(o.out) && !o.force && !o.resume) fail(o.out, "already exists (use --force to overwrite)");
   if (o.resume && !fs::exists(ckpt)) fail(ckpt, "no checkpoint to resume from");
 
@@ -114,7 +118,6 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   }
   if (crop < 8) fail("finetune-decoder: --crop must be at least 8");
   if (!o.resume && fs::exists(ckpt)) fs::remove(ckpt);
-  if (fs::path(o.out).has_parent_path()) fs::create_directories(fs::path(o.out).parent_path());
 
   auto ae = load_autoencoder(o.autoencoder, o.encoder, o.decoder);
   ae->set_encoder_trainable(false);

@@ -9,6 +9,7 @@
 #include "lrf/align/correspondence_loss.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/core/error.h"
+#include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
@@ -131,10 +132,12 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   if (o.out.empty()) fail("finetune-encoder: no output file (-o)");
   if (o.steps < 1 || o.batch.pairs < 1) fail("finetune-encoder: --steps and --pairs must be at least 1");
   const std::string ckpt = finetune_checkpoint_path(o.out);
+  if (fs::path(o.out).has_parent_path()) fs::create_directories(fs::path(o.out).parent_path());
+  // Taken before the checks below so that a second job cannot remove or overwrite this one's checkpoint.
+  const auto lock = FolderLock::for_output_file(o.out);
   if (fs::exists(o.out) && !o.force && !o.resume) fail(o.out, "already exists (use --force to overwrite)");
   if (o.resume && !fs::exists(ckpt)) fail(ckpt, "no checkpoint to resume from");
   if (!o.resume && fs::exists(ckpt)) fs::remove(ckpt);
-  if (fs::path(o.out).has_parent_path()) fs::create_directories(fs::path(o.out).parent_path());
 
   std::vector<PairScene> scenes;
   for (size_t s = 0; s < o.scenes.size(); ++s) {

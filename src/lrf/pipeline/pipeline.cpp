@@ -6,6 +6,7 @@
 #include <set>
 
 #include "lrf/core/error.h"
+#include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
@@ -50,20 +51,54 @@ struct Paths {
   }
 };
 
-void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const std::string& dir,
-                         const std::string& encoder) {
-  const int downscale = downscale_for_max_side(scene, "", o.max_side);
-  if (run_finished(dir)) {
-    // Reused only if it is the field this pipeline would train: same scene, resolution, model, length, seed.
-    const nlohmann::json config = read_json_file((fs::path(dir) / "config.json").string());
-    const nlohmann::json& r = config.at("options");
-    if (canonical(r.value("scene", std::string())) != canonical(scene) || r.value("downscale", 0) != downscale ||
-        r.value("iters", int64_t(0)) != o.field_iters || r.value("seed", uint64_t(0)) != o.seed ||
-        config.value("autoencoder_identity", std::string()) != autoencoder_identity(o.autoencoder, encoder)) {
-      fail((fs::path(dir) / "config.json").string(), "this field was trained with other options than the pipeline's; "
-                                                     "use another output folder or remove " + dir);
+// Refuses to reuse a finished step of the pipeline that was made with other settings than this run's,
+// naming each setting of `wanted` that the recorded ones lack or differ in.
+void require_same_settings(const std::string& record, const nlohmann::json& recorded, const nlohmann::json& wanted,
+                           const std::string& what, const std::string& folder) {
+  std::string differ;
+  for (auto& [key, value] : wanted.items()) {
+    if (!recorded.contains(key) || recorded[key] != value) {
+      differ += " " + key + " (" + (recorded.contains(key) ? recorded[key].dump() : "none") + " vs " + value.dump() + ")";
     }
-    log_info("reusing latent field " + dir);
+  }
+  if (!differ.empty()) {
+    fail(record, what + " in this folder was made with other settings than the pipeline's:" + differ +
+                     "; use another output folder or remove " + folder);
+  }
+}
+
+// The settings that decide a field: scene, resolution, length, seed and (latent) the autoencoder's identity.
+nlohmann::json field_settings(const std::string& scene, int downscale, int64_t iters, uint64_t seed,
+                              const std::string& autoencoder_id) {
+  nlohmann::json j = {{"scene", canonical(scene)}, {"downscale", downscale}, {"iters", iters}, {"seed", seed}};
+  if (!autoencoder_id.empty()) j["autoencoder_identity"] = autoencoder_id;
+  return j;
+}
+
+// True if DIR holds a finished field made with these settings; throws if it holds one made with others.
+bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
+  if (!run_finished(dir)) return false;
+  const std::string record = (fs::path(dir) / "config.json").string();
+  const nlohmann::json config = read_json_file(record);
+  const nlohmann::json& options = config.at("options");
+  const nlohmann::json recorded = field_settings(config.value("scene", std::string()), config.value("downscale", 0),
+                                                 options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
+                                                 config.value("autoencoder_identity", std::string()));
+  require_same_settings(record, recorded, wanted, "the field", dir);
+  log_info("reusing field " + dir);
+  return true;
+}
+
+// The recorded options of a fine-tuning step, without the checkpoint interval, which does not change the result.
+nlohmann::json finetune_settings(nlohmann::json options) {
+  options.erase("checkpoint_every");
+  return options;
+}
+
+void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
+                         const std::string& encoder) {
+  if (reusable_field(dir, field_settings(scene, downscale, o.field_iters, o.seed,
+                                         autoencoder_identity(o.autoencoder, encoder)))) {
     return;
   }
   LatentTrainOptions l;
@@ -81,13 +116,10 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, con
   train_latent_field(l);
 }
 
-void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const std::string& dir) {
-  if (run_finished(dir)) {
-    log_info("reusing rgb/8 field " + dir);
-    return;
-  }
+void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir) {
+  if (reusable_field(dir, field_settings(scene, downscale, o.field_iters, o.seed, ""))) return;
   SceneOptions so;
-  so.downscale = downscale_for_max_side(scene, "", o.max_side);
+  so.downscale = downscale;
   const bool resume = fs::exists(splat::checkpoint_path(dir));
   log_info("== rgb/8 field " + dir + (resume ? " (resuming)" : ""));
   train_rgb_at_latent_resolution(scene, so, dir, o.field_iters, false, o.seed, resume);
@@ -104,20 +136,9 @@ void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
   e.seed = o.seed;
   const std::string record = finetune_record_path(e.out);
   if (fs::exists(e.out) && fs::exists(record)) {
-    // The checkpoint interval does not change the result.
-    nlohmann::json recorded = read_json_file(record).value("options", nlohmann::json()), wanted = encoder_finetune_options_json(e);
-    recorded.erase("checkpoint_every");
-    wanted.erase("checkpoint_every");
-    if (recorded != wanted) {
-      std::string differ;
-      for (auto& [key, value] : wanted.items()) {
-        if (!recorded.contains(key) || recorded[key] != value) {
-          differ += " " + key + " (" + (recorded.contains(key) ? recorded[key].dump() : "none") + " vs " + value.dump() + ")";
-        }
-      }
-      fail(record, "the Stage I encoder in this folder was made with other options:" + differ +
-                       "; use another output folder or remove " + fs::path(e.out).parent_path().string());
-    }
+    require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
+                          finetune_settings(encoder_finetune_options_json(e)), "the Stage I encoder",
+                          fs::path(e.out).parent_path().string());
     log_info("reusing Stage I encoder " + e.out);
     return;
   }
@@ -138,11 +159,11 @@ void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fi
   if (o.stage3_lr > 0) d.lr = o.stage3_lr;
   if (o.stage3_crop > 0) d.crop = o.stage3_crop;
   d.seed = o.seed;
-  if (fs::exists(out) && fs::exists(decoder_record_path(out))) {
-    if (read_json_file(decoder_record_path(out)).value("options", nlohmann::json()) != decoder_finetune_options_json(d)) {
-      fail(decoder_record_path(out), "the Stage III decoder in this folder was made with other options; use another "
-                                     "output folder or remove " + fs::path(out).parent_path().string());
-    }
+  const std::string record = decoder_record_path(out);
+  if (fs::exists(out) && fs::exists(record)) {
+    require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
+                          finetune_settings(decoder_finetune_options_json(d)), "the Stage III decoder",
+                          fs::path(out).parent_path().string());
     log_info("reusing Stage III decoder " + out);
     return;
   }
@@ -161,10 +182,6 @@ nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& f
   e.lpips_weights = o.lpips_weights;
   e.output_dir = dir;
   return evaluate_latent_run(field, e);
-}
-
-Cell number(const nlohmann::json& m, const char* key) {
-  return m.contains(key) && m[key].is_number() ? Cell(m[key].get<double>()) : Cell();
 }
 
 // The scenes a Stage III decoder was fine-tuned on, from its fields' recorded configurations.
@@ -204,6 +221,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   }
   const auto t0 = std::chrono::steady_clock::now();
   fs::create_directories(o.out);
+  const FolderLock lock(o.out);  // the stages below take their own locks on their own outputs
   Paths paths{o.out};
   nlohmann::json inputs = {{"train_scenes", nlohmann::json::array()},
                            {"eval_scenes", nlohmann::json::array()},
@@ -219,6 +237,12 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   const std::string record_path = (fs::path(o.out) / "pipeline.json").string();
   write_json_file(record_path, record);
 
+  // Each scene's resolution, probed once (probing reads the scene).
+  std::map<std::string, int> downscale;
+  for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
+    for (const auto& s : *list) downscale[s] = downscale_for_max_side(s, "", o.max_side);
+  }
+
   // Stage I, then Stage II on the training scenes with both encoders, then Stage III on each set.
   ensure_encoder(o, paths);
   const std::string encoder = paths.encoder();
@@ -226,7 +250,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   for (const auto& s : o.train_scenes) {
     for (const auto& [tag, enc] : {std::pair<std::string, std::string>{"stock", ""}, {"ft", encoder}}) {
       const std::string dir = paths.field(s, tag);
-      ensure_latent_field(o, s, dir, enc);
+      ensure_latent_field(o, s, downscale[s], dir, enc);
       train_fields[tag].push_back(dir);
     }
   }
@@ -261,13 +285,13 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   std::map<std::string, std::vector<double>> psnr_by_row;
   for (const auto& s : o.eval_scenes) {
     const std::string stock_field = paths.field(s, "stock"), ft_field = paths.field(s, "ft");
-    ensure_latent_field(o, s, stock_field, "");
-    ensure_latent_field(o, s, ft_field, encoder);
+    ensure_latent_field(o, s, downscale[s], stock_field, "");
+    ensure_latent_field(o, s, downscale[s], ft_field, encoder);
     std::map<std::string, nlohmann::json> m;
     std::map<std::string, std::string> image_dirs;
     if (o.rgb_baseline) {
       const std::string rgb = paths.field(s, "rgb8");
-      ensure_rgb_field(o, s, rgb);
+      ensure_rgb_field(o, s, downscale[s], rgb);
       const std::string metrics = (fs::path(rgb) / "metrics.json").string();
       m["rgb/8"] = fs::exists(metrics) ? read_json_file(metrics) : evaluate_rgb_run(rgb, o.lpips_weights);
       image_dirs["rgb/8"] = (fs::path(rgb) / "eval").string();
@@ -287,16 +311,17 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       if (!m.count(row)) continue;
       const auto& r = m[row];
       const bool latent = row != "rgb/8";
-      rows.push_back({scene_name(s), row, number(r, "psnr"),
-                      r.contains("psnr") ? Cell(r["psnr"].get<double>() - stock_psnr) : Cell(), number(r, "ssim"),
-                      number(r, "lpips"), latent ? number(r, "latent_psnr") : Cell(),
-                      latent ? number(r, "roundtrip_psnr") : Cell()});
+      rows.push_back({scene_name(s), row, Cell::number_in(r, "psnr"),
+                      r.contains("psnr") ? Cell(r["psnr"].get<double>() - stock_psnr) : Cell(),
+                      Cell::number_in(r, "ssim"), Cell::number_in(r, "lpips"),
+                      latent ? Cell::number_in(r, "latent_psnr") : Cell(),
+                      latent ? Cell::number_in(r, "roundtrip_psnr") : Cell()});
       psnr_by_row[row].push_back(r.value("psnr", 0.0));
       results[scene_name(s)][row] = {{"psnr", r.value("psnr", 0.0)}, {"ssim", r.value("ssim", 0.0)}, {"lpips", r.value("lpips", nlohmann::json())}};
     }
     // Report: every test view, ground truth then each row.
     SceneOptions so;
-    so.downscale = downscale_for_max_side(s, "", o.max_side);
+    so.downscale = downscale[s];
     so.crop_to_multiple_of_8 = true;
     Scene scene = load_scene(s, so);
     for (int i : scene.test_indices) {
@@ -310,7 +335,9 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         const std::string path = (fs::path(image_dirs[row]) / png).string();
         ReportImage im{row, fs::exists(path) ? read_image_rgb(path) : cv::Mat(), {}};
         for (const auto& view : m[row].value("views", nlohmann::json::array())) {
-          if (view.value("name", std::string()) == v.name) im.numbers.push_back({"PSNR", number(view, "psnr")});
+          if (view.value("name", std::string()) == v.name) {
+            im.numbers.push_back({"PSNR", Cell::number_in(view, "psnr")});
+          }
         }
         rv.methods.push_back(im);
       }
