@@ -37,7 +37,8 @@ lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--lambda-corres", o->lambda_corres, "Weight lambda1 of the correspondence loss")->capture_default_str();
   cmd->add_option("--lambda-reg", o->lambda_reg,
-                  "Weight lambda2 of the regulariser keeping latents near the original encoder's")
+                  "Weight lambda2 of the regulariser keeping latents near the original encoder's (lower: more "
+                  "consistent latents, but a decoder round trip that degrades faster)")
       ->capture_default_str();
   cmd->add_option("--kl-weight", o->kl_weight, "KL-VAE only: weight of the posterior's KL to N(0, I) in L_VAE")
       ->capture_default_str();
