@@ -17,6 +17,7 @@
 #include <benchmark/benchmark.h>
 #include <torch/torch.h>
 
+#include "lrf/core/allocator.h"
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/tiny_ae.h"
@@ -110,6 +111,7 @@ BENCHMARK(kl_decode)->Apply(sizes)->Iterations(1);
 }  // namespace
 
 int main(int argc, char** argv) {
+  lrf::keep_freed_memory();  // as the lrf binary does, so that the figures match its runs
   int threads = 2;
   for (int i = 1; i + 1 < argc; ++i) {
     if (std::strcmp(argv[i], "--threads") == 0) {

@@ -19,6 +19,7 @@
 
 #include <torch/torch.h>
 
+#include "lrf/core/allocator.h"
 #include "lrf/splat/binning.h"
 #include "lrf/splat/projection.h"
 #include "lrf/splat/raster_kernels.h"
@@ -173,6 +174,7 @@ void bench_fps(int threads, int reps) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  lrf::keep_freed_memory();  // as the lrf binary does, so that the figures match its runs
   const int reps = argc > 1 ? std::atoi(argv[1]) : 7;
   const int max_threads = argc > 2 ? std::atoi(argv[2]) : 2;
   const std::string only = argc > 3 ? argv[3] : "";  // "a", "b" or "fps" to run one part

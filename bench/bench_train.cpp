@@ -19,9 +19,11 @@
 
 #include <torch/torch.h>
 
+#include "lrf/core/allocator.h"
 #include "lrf/core/threads.h"
 #include "lrf/splat/densify.h"
 #include "lrf/splat/trainer.h"
+#include "lrf/splat/spatial_order.h"
 
 using namespace lrf::splat;
 
@@ -60,6 +62,10 @@ Gaussians field(int64_t n, int channels, int degree, double fov_x, double fov_y)
   g.sh.narrow(1, 1, g.sh.size(1) - 1).normal_(0, 0.05);
   g.quats.normal_();
   g.opacity_logits.normal_(0, 1);
+  if (getenv("MORTON")) {
+    auto perm = spatial_order(g.means);
+    for (auto* t : g.parameters()) *t = t->detach().index_select(0, perm).set_requires_grad(true);
+  }
   return g;
 }
 
@@ -128,6 +134,7 @@ void print(const std::string& name, int w, int h, int c, int64_t n, int degree, 
 }  // namespace
 
 int main(int argc, char** argv) {
+  lrf::keep_freed_memory();  // as the lrf binary does, so that the figures match its runs
   std::string which = "all";
   int iters = 20;
   bool quick = false;

@@ -149,3 +149,41 @@ TEST(DensifySchedule, InriaAt30kAndCompressedBelow) {
   EXPECT_FALSE(s.densify_at(15000));
   EXPECT_GE(DensifySchedule::for_iterations(300).interval, 10);
 }
+
+TEST(Densify, SortSpatiallyFollowsTheZCurveAndKeepsMomentsAligned) {
+  auto f = make_fixture();
+  // The 8 corners of a cube, listed so that Z-order (x the lowest bit, then y, then z) is 5 7 2 0 6 1 4 3
+  // (codes x + 2y + 4z: 3 5 2 7 6 0 4 1).
+  const float corners[8][3] = {{1, 1, 0}, {1, 0, 1}, {0, 1, 0}, {1, 1, 1}, {0, 1, 1}, {0, 0, 0}, {0, 0, 1}, {1, 0, 0}};
+  {
+    torch::NoGradGuard ng;
+    f.g.means = torch::from_blob(const_cast<float*>(&corners[0][0]), {8, 3}, torch::kFloat32).clone();
+    for (auto* p : f.g.parameters())
+      if (p != &f.g.means) *p = torch::cat({*p, p->narrow(0, 0, 2)});  // 8 rows: rows 6, 7 repeat 0, 1
+  }
+  f.g.make_leaves();
+  std::vector<torch::Tensor> state;
+  for (int pass = 0; pass < 2; ++pass)
+    for (auto* p : f.g.parameters()) {
+      auto rows = torch::arange(1, 9, torch::kFloat32) * (pass ? 10.0f : 1.0f);
+      for (int64_t k = 1; k < p->dim(); ++k) rows = rows.unsqueeze(-1);
+      state.push_back(rows.expand(p->sizes()).contiguous());
+    }
+  f.adam.set_state(state, 3);
+  auto original = f.g.clone();
+  sort_spatially(f.g, f.adam);
+  const int64_t expected[8] = {5, 7, 2, 0, 6, 1, 4, 3};
+  auto moments = f.adam.state();
+  for (int i = 0; i < 8; ++i) {
+    const int64_t from = expected[i];
+    EXPECT_TRUE(torch::equal(f.g.means[i], original.means[from])) << i;
+    EXPECT_TRUE(torch::equal(f.g.sh[i], original.sh[from])) << i;
+    EXPECT_TRUE(torch::equal(f.g.quats[i], original.quats[from])) << i;
+    for (int k = 0; k < GaussianAdam::kGroups; ++k) {
+      EXPECT_TRUE((moments[k][i] == float(from + 1)).all().item<bool>()) << "m group " << k << " row " << i;
+      EXPECT_TRUE((moments[5 + k][i] == float(10 * (from + 1))).all().item<bool>()) << "v group " << k;
+    }
+  }
+  EXPECT_TRUE(f.g.means.requires_grad() && f.g.means.is_leaf());
+  EXPECT_EQ(f.adam.steps_taken(), 3);
+}

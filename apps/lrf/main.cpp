@@ -1,6 +1,4 @@
 // lrf: latent radiance fields on the command line. Each job is a subcommand (see cmd_*.cpp).
-#include <malloc.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <exception>
@@ -9,6 +7,7 @@
 #include <c10/util/Exception.h>
 
 #include "command.h"
+#include "lrf/core/allocator.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
@@ -44,10 +43,7 @@ void on_run(CLI::App* command, RunFunction run) { runners().emplace_back(command
 
 int main(int argc, char** argv) {
   using namespace lrf;
-  // Training allocates and frees the same large gradient buffers every step; glibc would return them to
-  // the kernel each time (mmap/trim) and pay page faults again on the next step.
-  mallopt(M_MMAP_MAX, 0);
-  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+  keep_freed_memory();
   set_command_line(argc, argv);
   CLI::App app{"lrf: latent radiance fields. 3D reconstruction and novel-view synthesis in the latent "
                "space of an image autoencoder (encoder alignment, latent Gaussian splatting, decoder "

@@ -6,6 +6,8 @@
 #include <ATen/ATen.h>
 #include <ATen/CPUGeneratorImpl.h>
 
+#include "lrf/splat/spatial_order.h"
+
 namespace lrf::splat {
 
 DensifySchedule DensifySchedule::for_iterations(int64_t iterations) {
@@ -127,6 +129,13 @@ DensifyStats Densifier::densify_and_prune(Gaussians& g, GaussianAdam& adam, doub
   stats.after = g.size();
   stats.pruned = n + stats.cloned + 2 * stats.split - stats.split - stats.after;
   return stats;
+}
+
+void sort_spatially(Gaussians& g, GaussianAdam& adam) {
+  torch::NoGradGuard no_grad;
+  const auto order = spatial_order(g.means);
+  g.permute_rows(order);
+  adam.gather_rows(order, g.size());
 }
 
 void Densifier::reset_opacity(Gaussians& g, GaussianAdam& adam, const torch::Tensor& opacity_filter_coef) {

@@ -56,6 +56,10 @@ class Densifier {
   void resize(int64_t n);
 };
 
+// Puts the rows in Z-order of their means (spatial_order.h), the optimizer's moments with them. After a
+// densification the clones and split children sit at the end, far from their neighbours in memory.
+void sort_spatially(Gaussians& g, GaussianAdam& adam);
+
 // Rotation matrices [N, 3, 3] of quaternions [N, 4] (w, x, y, z; normalised here).
 torch::Tensor quaternion_to_matrix(const torch::Tensor& quats);
 

@@ -61,6 +61,10 @@ Gaussians Gaussians::clone() const {
   return g;
 }
 
+void Gaussians::permute_rows(const torch::Tensor& order) {
+  for (auto* p : parameters()) *p = p->detach().index_select(0, order).set_requires_grad(true);
+}
+
 torch::Tensor features_to_sh_dc(const torch::Tensor& features) { return (features - 0.5) / kShC0; }
 torch::Tensor sh_dc_to_features(const torch::Tensor& dc) { return dc * kShC0 + 0.5; }
 

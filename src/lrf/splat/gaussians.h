@@ -43,6 +43,8 @@ struct Gaussians {
   // Throws lrf::Error(what, ...) when shapes disagree with each other.
   void check(const std::string& what) const;
   Gaussians clone() const;  // detached deep copy
+  // Rows in the given order (int64 [N], a permutation), as leaves that require grad.
+  void permute_rows(const torch::Tensor& order);
 };
 
 // Features in target space ([0, 1] for RGB and normalised latents) -> DC coefficients, and back.

@@ -12,6 +12,7 @@
 #include "lrf/splat/loss.h"
 #include "lrf/splat/mip_filter.h"
 #include "lrf/splat/render_field.h"
+#include "lrf/splat/spatial_order.h"
 
 namespace lrf::splat {
 namespace {
@@ -51,6 +52,7 @@ Trainer::Trainer(std::vector<TrainView> views, Gaussians init, double extent, Tr
   if (options_.sh_degree > g_.max_sh_degree) fail("trainer: SH degree exceeds the field's");
   if (!options_.background.defined()) options_.background = torch::zeros({c}, torch::kFloat32);
   g_.make_leaves();
+  g_.permute_rows(spatial_order(g_.means));  // see spatial_order.h
   adam_ = GaussianAdam(g_, options_.lr, extent_, options_.iterations);
   adam_.sparse = options_.sparse_adam;
   densifier_.resize(g_.size());
@@ -137,6 +139,7 @@ StepResult Trainer::step() {
     r.densify = densifier_.densify_and_prune(g_, adam_, extent_, step > sched.opacity_reset_every,
                                              mix(options_.seed, kStreamSplit, static_cast<uint64_t>(step)),
                                              options_.densify);
+    sort_spatially(g_, adam_);  // the statistics were just reset: nothing else to reorder
     r.densified = true;
     update_filter();
   }
