@@ -5,7 +5,7 @@
 //   (b) 504×378 px, C = 3, 100k Gaussians (RGB at images_8), SH degree 0/1/3
 // Scenes: Gaussians spread through the view frustum at depths 2–8 with projected sizes log-uniform over a
 // few pixels and logits uniform in [−2, 4] (a mix of faint and opaque splats, as a trained field has).
-// Usage: bench_rasterizer [reps]
+// Usage: bench_rasterizer [reps] [max threads] [a|a3|b|fps|""] [vector width 1|4|8, default the widest]
 #include <omp.h>
 
 #include <algorithm>
@@ -178,6 +178,10 @@ int main(int argc, char** argv) {
   const int reps = argc > 1 ? std::atoi(argv[1]) : 7;
   const int max_threads = argc > 2 ? std::atoi(argv[2]) : 2;
   const std::string only = argc > 3 ? argv[3] : "";  // "a", "b" or "fps" to run one part
+  if (argc > 4 && !lrf::splat::set_raster_vector_width(std::atoi(argv[4]))) {
+    std::fprintf(stderr, "vector width %s is not available on this CPU\n", argv[4]);
+    return 2;
+  }
   if (!only.empty()) {
     for (int threads = 1; threads <= max_threads; ++threads) {
       if (only == "a") bench_case("(a)", 63, 47, 50000, 32, 1, 0.3, 3.0, threads, reps);
@@ -187,7 +191,8 @@ int main(int argc, char** argv) {
     }
     return 0;
   }
-  std::printf("times in ms (%s), minimum of %d runs\n", use_cpu_time() ? "process CPU time" : "wall clock", reps);
+  std::printf("times in ms (%s), minimum of %d runs, compositing %d pixels at a time\n",
+              use_cpu_time() ? "process CPU time" : "wall clock", reps, lrf::splat::raster_vector_width());
   for (int threads = 1; threads <= max_threads; ++threads) {
     for (int degree : {0, 1, 3}) bench_case("(a)", 63, 47, 50000, 32, degree, 0.3, 3.0, threads, reps);
     for (int degree : {0, 1, 3}) bench_case("(b)", 504, 378, 100000, 3, degree, 0.7, 8.0, threads, reps);

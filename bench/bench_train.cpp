@@ -8,7 +8,7 @@
 // sparse Adam (rows no pixel reached are skipped). The rasterizer's own stages (projection, SH,
 // binning/sort, forward, backward) are timed by bench_rasterizer.
 //
-// usage: bench_train [--quick] [--case a|b|all] [--iters N]
+// usage: bench_train [--quick] [--case a|b|all] [--iters N] [--width 1|4|8 (compositing lanes; default widest)]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,8 +22,8 @@
 #include "lrf/core/allocator.h"
 #include "lrf/core/threads.h"
 #include "lrf/splat/densify.h"
+#include "lrf/splat/raster_kernels.h"
 #include "lrf/splat/trainer.h"
-#include "lrf/splat/spatial_order.h"
 
 using namespace lrf::splat;
 
@@ -62,10 +62,6 @@ Gaussians field(int64_t n, int channels, int degree, double fov_x, double fov_y)
   g.sh.narrow(1, 1, g.sh.size(1) - 1).normal_(0, 0.05);
   g.quats.normal_();
   g.opacity_logits.normal_(0, 1);
-  if (getenv("MORTON")) {
-    auto perm = spatial_order(g.means);
-    for (auto* t : g.parameters()) *t = t->detach().index_select(0, perm).set_requires_grad(true);
-  }
   return g;
 }
 
@@ -124,9 +120,9 @@ Row run_case(int w, int h, int channels, int64_t n, int degree, int iters, bool 
 }
 
 void print(const std::string& name, int w, int h, int c, int64_t n, int degree, int threads, const Row& r) {
-  std::printf("%-5s %4dx%-4d C=%-2d N=%-7lld SH=%d thr=%d | %8.2f ms/iter | render %7.2f  loss %6.2f  backward %7.2f"
+  std::printf("%-5s %4dx%-4d C=%-2d N=%-7lld SH=%d thr=%d w=%d | %8.2f ms/iter | render %7.2f  loss %6.2f  backward %7.2f"
               "  adam %6.2f  dens-stats %5.2f | densify call %7.1f ms | VmHWM %ld MB\n",
-              name.c_str(), w, h, c, static_cast<long long>(n), degree, threads, r.total, r.t.render, r.t.loss, r.t.backward,
+              name.c_str(), w, h, c, static_cast<long long>(n), degree, threads, raster_vector_width(), r.total, r.t.render, r.t.loss, r.t.backward,
               r.t.optimizer, r.t.densify, r.densify_call, vm_hwm_kb() / 1024);
   std::fflush(stdout);
 }
@@ -142,8 +138,14 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--case") && i + 1 < argc) which = argv[++i];
     else if (!std::strcmp(argv[i], "--iters") && i + 1 < argc) iters = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else if (!std::strcmp(argv[i], "--width") && i + 1 < argc) {
+      if (!set_raster_vector_width(std::atoi(argv[++i]))) {
+        std::fprintf(stderr, "vector width %s is not available on this CPU\n", argv[i]);
+        return 2;
+      }
+    }
     else {
-      std::fprintf(stderr, "usage: bench_train [--quick] [--case a|b|all] [--iters N]\n");
+      std::fprintf(stderr, "usage: bench_train [--quick] [--case a|b|all] [--iters N] [--width 1|4|8]\n");
       return 2;
     }
   }

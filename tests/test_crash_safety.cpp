@@ -145,8 +145,10 @@ TEST(CrashSafety, KilledTrainingResumesToTheUninterruptedResult) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   ASSERT_FALSE(exited) << "the run ended before it could be killed: " << lrf::read_file(dir / "killed.log");
+  // Frozen at once: the 125 steps left take well under a second, less than starting the second job below.
+  ASSERT_EQ(::kill(pid, SIGSTOP), 0);
 
-  // While it runs, a second job on its folder is refused, naming the folder and the PID holding it.
+  // While it holds the folder, a second job on it is refused, naming the folder and the PID holding it.
   auto second = lrf::test::run_lrf(train_args(scene, killed) + " --resume");
   EXPECT_NE(second.exit_code, 0);
   EXPECT_NE(second.output.find("in use by another lrf job (PID " + std::to_string(pid) + ")"), std::string::npos)

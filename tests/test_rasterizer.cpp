@@ -32,6 +32,7 @@
 
 #include "lrf/core/error.h"
 #include "lrf/splat/binning.h"
+#include "lrf/splat/raster_kernels.h"
 #include "lrf/splat/rasterize.h"
 #include "lrf/splat/reference.h"
 
@@ -523,4 +524,56 @@ TEST(Rasterizer, ManyTilesTwoThreads) {
     EXPECT_LT(max_abs_diff(g1[k], g2[k]), 1e-5 * scale + 1e-7) << "input " << k;
   }
   omp_set_num_threads(saved);
+}
+
+// The kernels at every vector width the CPU runs (8 with AVX2, 4 with SSE2, 1 in plain C++; the tests
+// above use the widest): the same images bit for bit, and gradients equal up to float rounding of the
+// per-lane sums (relative 1e-5 of each parameter's largest gradient; the float32 sums of a few hundred
+// terms carry ~1e-6).
+TEST(Rasterizer, EveryVectorWidthGivesTheSameResult) {
+  using lrf::splat::raster_vector_width;
+  using lrf::splat::RenderOutput;
+  using lrf::splat::set_raster_vector_width;
+  const int widest = raster_vector_width();
+  struct Result {
+    RenderOutput out;
+    std::vector<torch::Tensor> grads;
+  };
+  for (int C : {1, 3, 32}) {
+    Scene s = make_scene(60, C, 3, 1, 40 + C);
+    torch::manual_seed(3);
+    const Upstream u = make_upstream(s, true);
+    auto run = [&](int width) {
+      EXPECT_TRUE(set_raster_vector_width(width)) << width;
+      std::vector<torch::Tensor> leaves;
+      for (const auto& p : s.params()) leaves.push_back(p.clone().requires_grad_(true));
+      Result r{render(leaves[0], leaves[1], leaves[2], leaves[3], leaves[4], s.settings), {}};
+      auto loss = (u.image.to(torch::kFloat32) * r.out.image).sum() +
+                  (u.alpha.to(torch::kFloat32) * r.out.alpha).sum() + (u.depth.to(torch::kFloat32) * r.out.depth).sum();
+      loss.backward();
+      for (auto& l : leaves) r.grads.push_back(l.grad());
+      return r;
+    };
+    std::vector<int> widths;
+    for (int w : {1, 4, 8})
+      if (set_raster_vector_width(w)) widths.push_back(w);
+    ASSERT_GE(widths.size(), 2u);  // 1 everywhere, and at least SSE2 on the x86-64 machines lrf targets
+    const Result base = run(widths.front());
+    EXPECT_GT(base.out.alpha.max().item<double>(), 0.5) << "C=" << C << ": the scene draws something";
+    for (size_t k = 1; k < widths.size(); ++k) {
+      const Result other = run(widths[k]);
+      EXPECT_TRUE(torch::equal(base.out.image, other.out.image)) << "C=" << C << " width " << widths[k];
+      EXPECT_TRUE(torch::equal(base.out.alpha, other.out.alpha)) << "C=" << C << " width " << widths[k];
+      EXPECT_TRUE(torch::equal(base.out.depth, other.out.depth)) << "C=" << C << " width " << widths[k];
+      for (size_t p = 0; p < base.grads.size(); ++p) {
+        const double scale = base.grads[p].abs().max().item<double>();
+        EXPECT_GT(scale, 0) << "parameter " << p;
+        EXPECT_LE(max_abs_diff(base.grads[p], other.grads[p]), 1e-5 * scale)
+            << "C=" << C << " width " << widths[k] << " parameter " << p;
+      }
+    }
+  }
+  EXPECT_TRUE(set_raster_vector_width(widest));
+  EXPECT_FALSE(set_raster_vector_width(3));
+  EXPECT_EQ(raster_vector_width(), widest);
 }

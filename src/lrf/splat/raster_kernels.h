@@ -4,10 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 #include "lrf/splat/projection.h"
 
@@ -86,76 +82,13 @@ struct RasterGrads {
 
 void rasterize_backward(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
 
-// e^x for x <= 0 (Cephes-style: x = n·ln2 + r, degree-6 polynomial in r, 2^n through the exponent bits;
-// ~2 ulp). Plain IEEE arithmetic in a fixed order: the SSE2 version below gives the same bits.
-inline float exp_nonpositive(float x) {
-  x = x < -87.f ? -87.f : x;
-  const int32_t n = static_cast<int32_t>(x * 1.44269504088896341f - 0.5f);  // round to nearest for x <= 0
-  const float fn = static_cast<float>(n);
-  const float r = (x - fn * 0.693359375f) + fn * 2.12194440e-4f;
-  float p = 1.9875691500e-4f;
-  p = p * r + 1.3981999507e-3f;
-  p = p * r + 8.3334519073e-3f;
-  p = p * r + 4.1665795894e-2f;
-  p = p * r + 1.6666665459e-1f;
-  p = p * r + 5.0000001201e-1f;
-  p = p * r * r + r + 1.f;
-  const int32_t bits = (n + 127) << 23;
-  float scale;
-  std::memcpy(&scale, &bits, sizeof(scale));
-  return p * scale;
-}
-
-#if defined(__SSE2__)
-inline __m128 exp_nonpositive(__m128 x) {
-  x = _mm_max_ps(x, _mm_set1_ps(-87.f));
-  const __m128i n = _mm_cvttps_epi32(_mm_sub_ps(_mm_mul_ps(x, _mm_set1_ps(1.44269504088896341f)), _mm_set1_ps(0.5f)));
-  const __m128 fn = _mm_cvtepi32_ps(n);
-  const __m128 r = _mm_add_ps(_mm_sub_ps(x, _mm_mul_ps(fn, _mm_set1_ps(0.693359375f))),
-                              _mm_mul_ps(fn, _mm_set1_ps(2.12194440e-4f)));
-  __m128 p = _mm_set1_ps(1.9875691500e-4f);
-  p = _mm_add_ps(_mm_mul_ps(p, r), _mm_set1_ps(1.3981999507e-3f));
-  p = _mm_add_ps(_mm_mul_ps(p, r), _mm_set1_ps(8.3334519073e-3f));
-  p = _mm_add_ps(_mm_mul_ps(p, r), _mm_set1_ps(4.1665795894e-2f));
-  p = _mm_add_ps(_mm_mul_ps(p, r), _mm_set1_ps(1.6666665459e-1f));
-  p = _mm_add_ps(_mm_mul_ps(p, r), _mm_set1_ps(5.0000001201e-1f));
-  p = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(p, r), r), r), _mm_set1_ps(1.f));
-  const __m128 scale = _mm_castsi128_ps(_mm_slli_epi32(_mm_add_epi32(n, _mm_set1_epi32(127)), 23));
-  return _mm_mul_ps(p, scale);
-}
-#endif
-
-// α and e^−σ of a splat along one pixel row of at most kTileSize pixels: pixel k is at offset
-// (dx0 − k, dy) = mean − pixel centre. α is 0 where the splat is skipped (σ < 0 from rounding, or
-// α < 1/255). Forward and backward both call this function, so that they take the same decisions bit for
-// bit. alpha and gauss must hold kTileSize floats (whole SIMD groups are written).
-inline void splat_alpha_row(float A, float B, float C, float o, float dx0, float dy, int len, float* alpha,
-                            float* gauss) {
-  const float a2 = -0.5f * A, by = -B * dy, cy = -0.5f * C * dy * dy;
-#if defined(__SSE2__)
-  const __m128 va2 = _mm_set1_ps(a2), vby = _mm_set1_ps(by), vcy = _mm_set1_ps(cy), vo = _mm_set1_ps(o);
-  const __m128 vdx0 = _mm_set1_ps(dx0), ramp = _mm_setr_ps(0.f, 1.f, 2.f, 3.f);
-  for (int k = 0; k < len; k += 4) {
-    const __m128 dx = _mm_sub_ps(vdx0, _mm_add_ps(_mm_set1_ps(static_cast<float>(k)), ramp));
-    const __m128 power = _mm_add_ps(_mm_add_ps(_mm_mul_ps(_mm_mul_ps(va2, dx), dx), _mm_mul_ps(vby, dx)), vcy);
-    const __m128 g = exp_nonpositive(power);
-    const __m128 og = _mm_mul_ps(vo, g);
-    const __m128 a = _mm_min_ps(_mm_set1_ps(kMaxAlpha), og);
-    const __m128 keep = _mm_and_ps(_mm_cmple_ps(power, _mm_setzero_ps()), _mm_cmpge_ps(a, _mm_set1_ps(kMinAlpha)));
-    _mm_storeu_ps(alpha + k, _mm_and_ps(keep, a));
-    _mm_storeu_ps(gauss + k, g);
-  }
-#else
-  for (int k = 0; k < len; ++k) {
-    const float dx = dx0 - static_cast<float>(k);
-    const float power = a2 * dx * dx + by * dx + cy;
-    const float g = exp_nonpositive(power);
-    const float a = std::min(kMaxAlpha, o * g);
-    alpha[k] = (power <= 0.f && a >= kMinAlpha) ? a : 0.f;
-    gauss[k] = g;
-  }
-#endif
-}
+// The kernels run kWidth pixels at a time: 8 (AVX2) where the CPU has it, else 4 (SSE2; 1 off x86-64).
+// Every lane computes the same bits at any width, so the images agree exactly; gradient sums over lanes are
+// added in a different order, so gradients agree to float rounding. Tests set the width to cover each.
+int raster_vector_width();
+// Chooses a width the CPU supports (8 with AVX2, 4 on x86-64, and 1 anywhere); returns false, changing
+// nothing, for any other.
+bool set_raster_vector_width(int width);
 
 // Tile lists visit Gaussians in depth order, i.e. at random places of the per-Gaussian arrays: ask for the
 // data of the entry a few steps ahead so that its cache misses overlap with the current entry's work.
