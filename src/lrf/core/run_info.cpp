@@ -9,6 +9,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/threads.h"
+#include "lrf/splat/raster_kernels.h"
 
 namespace lrf {
 namespace {
@@ -27,7 +28,10 @@ nlohmann::json version_info() {
           {"build", LRF_BUILD_TYPE},
           {"libtorch", TORCH_VERSION},
           {"opencv", CV_VERSION},
-          {"threads", thread_count()}};
+          {"threads", thread_count()},
+          // Pixels composited at a time (8 with AVX2, 4 with SSE2): images do not depend on it, but
+          // gradients round differently, so a run reproduces exactly only at the same width.
+          {"compositing_lanes", splat::raster_vector_width()}};
 }
 
 std::string version_string() {

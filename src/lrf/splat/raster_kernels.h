@@ -82,7 +82,8 @@ struct RasterGrads {
 
 void rasterize_backward(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
 
-// The kernels run kWidth pixels at a time: 8 (AVX2) where the CPU has it, else 4 (SSE2; 1 off x86-64).
+// The kernels run several pixels of a row at a time: 8 (AVX2) where the CPU has it, else 4 (SSE2; 1 off
+// x86-64).
 // Every lane computes the same bits at any width, so the images agree exactly; gradient sums over lanes are
 // added in a different order, so gradients agree to float rounding. Tests set the width to cover each.
 int raster_vector_width();

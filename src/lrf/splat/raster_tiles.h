@@ -1,6 +1,6 @@
 #pragma once
 // The compositing kernels behind rasterize_forward / rasterize_backward, written once against the vector
-// interface of simd.h and instantiated per width (rasterize_kernels_*.cpp). Plain loops over raw arrays;
+// interface of simd.h and instantiated per width (raster_width_*.cpp). Plain loops over raw arrays;
 // images are channel-major [C, H, W]; parallel over 16×16 tiles.
 //
 // Splats are visited in depth order and each one only over the pixels of its α box, which gives exactly
