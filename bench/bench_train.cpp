@@ -120,10 +120,10 @@ Row run_case(int w, int h, int channels, int64_t n, int degree, int iters, bool 
 }
 
 void print(const std::string& name, int w, int h, int c, int64_t n, int degree, int threads, const Row& r) {
-  std::printf("%-5s %4dx%-4d C=%-2d N=%-7lld SH=%d thr=%d w=%d | %8.2f ms/iter | render %7.2f  loss %6.2f  backward %7.2f"
-              "  adam %6.2f  dens-stats %5.2f | densify call %7.1f ms | VmHWM %ld MB\n",
-              name.c_str(), w, h, c, static_cast<long long>(n), degree, threads, raster_vector_width(), r.total, r.t.render, r.t.loss, r.t.backward,
-              r.t.optimizer, r.t.densify, r.densify_call, vm_hwm_kb() / 1024);
+  std::printf("%-5s %4dx%-4d C=%-2d N=%-7lld SH=%d thr=%d w=%d | %8.2f ms/iter | render %7.2f  loss %6.2f"
+              "  backward %7.2f  adam %6.2f  dens-stats %5.2f | densify call %7.1f ms | VmHWM %ld MB\n",
+              name.c_str(), w, h, c, static_cast<long long>(n), degree, threads, raster_vector_width(), r.total,
+              r.t.render, r.t.loss, r.t.backward, r.t.optimizer, r.t.densify, r.densify_call, vm_hwm_kb() / 1024);
   std::fflush(stdout);
 }
 

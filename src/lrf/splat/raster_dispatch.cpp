@@ -6,45 +6,49 @@
 namespace lrf::splat {
 namespace {
 
-bool cpu_has_avx2() {
+struct Kernels {
+  int width;
+  void (*forward)(const RasterInputs&, const ColorSource&, const RasterForwardOutputs&);
+  void (*backward)(int64_t, const RasterInputs&, const RasterBackwardInputs&, const RasterGrads&);
+};
+
+const Kernels kScalar{1, widths::forward_scalar, widths::backward_scalar};
+const Kernels kBaseline{widths::baseline_width(), widths::forward_baseline, widths::backward_baseline};
 #if defined(LRF_AVX2_KERNELS)
-  return __builtin_cpu_supports("avx2");
-#else
-  return false;
+const Kernels kAvx2{8, widths::forward_avx2, widths::backward_avx2};
 #endif
+
+// The kernels of that width, if this build has them and this CPU can run them.
+const Kernels* kernels_of_width(int width) {
+#if defined(LRF_AVX2_KERNELS)
+  if (width == 8) return __builtin_cpu_supports("avx2") ? &kAvx2 : nullptr;
+#endif
+  if (width == kBaseline.width) return &kBaseline;
+  if (width == 1) return &kScalar;
+  return nullptr;
 }
 
-int widest_width() { return cpu_has_avx2() ? 8 : widths::baseline_width(); }
-
-std::atomic<int>& chosen_width() {
-  static std::atomic<int> width{widest_width()};
-  return width;
+std::atomic<const Kernels*>& chosen() {
+  static std::atomic<const Kernels*> kernels{kernels_of_width(8) ? kernels_of_width(8) : &kBaseline};
+  return kernels;
 }
 
 }  // namespace
 
-int raster_vector_width() { return chosen_width().load(); }
+int raster_vector_width() { return chosen().load()->width; }
 
 bool set_raster_vector_width(int width) {
-  const bool supported = width == 1 || width == widths::baseline_width() || (width == 8 && cpu_has_avx2());
-  if (supported) chosen_width().store(width);
-  return supported;
+  const Kernels* k = kernels_of_width(width);
+  if (k) chosen().store(k);
+  return k != nullptr;
 }
 
 void rasterize_forward(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out) {
-#if defined(LRF_AVX2_KERNELS)
-  if (raster_vector_width() == 8) return widths::forward_avx2(in, source, out);
-#endif
-  if (raster_vector_width() == 1) return widths::forward_scalar(in, source, out);
-  widths::forward_baseline(in, source, out);
+  chosen().load()->forward(in, source, out);
 }
 
 void rasterize_backward(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out) {
-#if defined(LRF_AVX2_KERNELS)
-  if (raster_vector_width() == 8) return widths::backward_avx2(n, in, bin, out);
-#endif
-  if (raster_vector_width() == 1) return widths::backward_scalar(n, in, bin, out);
-  widths::backward_baseline(n, in, bin, out);
+  chosen().load()->backward(n, in, bin, out);
 }
 
 }  // namespace lrf::splat
