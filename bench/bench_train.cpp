@@ -8,7 +8,8 @@
 // sparse Adam (rows no pixel reached are skipped). The rasterizer's own stages (projection, SH,
 // binning/sort, forward, backward) are timed by bench_rasterizer.
 //
-// usage: bench_train [--quick] [--case a|b|all] [--iters N] [--width 1|4|8 (compositing lanes; default widest)]
+// usage: bench_train [--quick] [--case a|b|all] [--sh 0|1|3 (case (a) only that degree)] [--iters N]
+//                    [--width 1|4|8 (compositing lanes; default widest)]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -134,10 +135,12 @@ int main(int argc, char** argv) {
   std::string which = "all";
   int iters = 20;
   bool quick = false;
+  int only_degree = -1;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--case") && i + 1 < argc) which = argv[++i];
     else if (!std::strcmp(argv[i], "--iters") && i + 1 < argc) iters = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else if (!std::strcmp(argv[i], "--sh") && i + 1 < argc) only_degree = std::atoi(argv[++i]);
     else if (!std::strcmp(argv[i], "--width") && i + 1 < argc) {
       if (!set_raster_vector_width(std::atoi(argv[++i]))) {
         std::fprintf(stderr, "vector width %s is not available on this CPU\n", argv[i]);
@@ -145,7 +148,7 @@ int main(int argc, char** argv) {
       }
     }
     else {
-      std::fprintf(stderr, "usage: bench_train [--quick] [--case a|b|all] [--iters N] [--width 1|4|8]\n");
+      std::fprintf(stderr, "usage: bench_train [--quick] [--case a|b|all] [--sh 0|1|3] [--iters N] [--width 1|4|8]\n");
       return 2;
     }
   }
@@ -154,6 +157,7 @@ int main(int argc, char** argv) {
     lrf::set_thread_count(threads);
     if (which == "a" || which == "all")
       for (int degree : {0, 1, 3}) {
+        if (only_degree >= 0 && degree != only_degree) continue;
         print("(a)", 63, 47, 32, 50000, degree, threads, run_case(63, 47, 32, 50000, degree, iters));
         print("(a)sp", 63, 47, 32, 50000, degree, threads, run_case(63, 47, 32, 50000, degree, iters, true));
       }

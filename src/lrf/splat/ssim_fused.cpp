@@ -1,5 +1,6 @@
 #include "lrf/splat/ssim_fused.h"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -25,26 +26,30 @@ const Window& window() {
   return w;
 }
 
-// Zero-padded separable blur of one h x w plane (symmetric window: also its own adjoint).
-void blur_plane(const float* in, float* out, float* tmp, int h, int w) {
+// Zero-padded separable blur of one h x w plane (symmetric window: also its own adjoint). Each pass adds
+// the taps in the same order for every pixel, out-of-image taps as exact zeros, so that the loops over x
+// vectorise; tmp holds h·w floats and row w + 2·kRadius.
+void blur_plane(const float* in, float* __restrict out, float* __restrict tmp, float* __restrict row, int h, int w) {
   const float* k = window().w;
+  std::fill(row, row + kRadius, 0.f);
+  std::fill(row + kRadius + w, row + w + 2 * kRadius, 0.f);
   for (int y = 0; y < h; ++y) {
-    const float* row = in + static_cast<int64_t>(y) * w;
-    float* t = tmp + static_cast<int64_t>(y) * w;
-    for (int x = 0; x < w; ++x) {
-      float s = 0;
-      const int lo = std::max(-kRadius, -x), hi = std::min(kRadius, w - 1 - x);
-      for (int d = lo; d <= hi; ++d) s += k[d + kRadius] * row[x + d];
-      t[x] = s;
+    std::copy(in + static_cast<int64_t>(y) * w, in + static_cast<int64_t>(y + 1) * w, row + kRadius);
+    float* __restrict t = tmp + static_cast<int64_t>(y) * w;
+    for (int x = 0; x < w; ++x) t[x] = 0;
+    for (int d = 0; d <= 2 * kRadius; ++d) {
+      const float kd = k[d];
+      const float* __restrict src = row + d;
+      for (int x = 0; x < w; ++x) t[x] += kd * src[x];
     }
   }
   for (int y = 0; y < h; ++y) {
-    float* o = out + static_cast<int64_t>(y) * w;
+    float* __restrict o = out + static_cast<int64_t>(y) * w;
     for (int x = 0; x < w; ++x) o[x] = 0;
     const int lo = std::max(-kRadius, -y), hi = std::min(kRadius, h - 1 - y);
     for (int d = lo; d <= hi; ++d) {
       const float kd = k[d + kRadius];
-      const float* t = tmp + static_cast<int64_t>(y + d) * w;
+      const float* __restrict t = tmp + static_cast<int64_t>(y + d) * w;
       for (int x = 0; x < w; ++x) o[x] += kd * t[x];
     }
   }
@@ -65,19 +70,19 @@ class FusedSsim : public torch::autograd::Function<FusedSsim> {
     float* ps = stats.data_ptr<float>();
     double* psum = sums.data_ptr<double>();
     at::parallel_for(0, planes, 1, [&](int64_t begin, int64_t end) {
-      std::vector<float> src(plane), tmp(plane);
+      std::vector<float> src(plane), tmp(plane), row(w + 2 * kRadius);
       for (int64_t p = begin; p < end; ++p) {
         const float* x = pa + p * plane;
         const float* y = pb + p * plane;
         float* s = ps + p * 5 * plane;
-        blur_plane(x, s, tmp.data(), h, w);
-        blur_plane(y, s + plane, tmp.data(), h, w);
+        blur_plane(x, s, tmp.data(), row.data(), h, w);
+        blur_plane(y, s + plane, tmp.data(), row.data(), h, w);
         for (int64_t i = 0; i < plane; ++i) src[i] = x[i] * x[i];
-        blur_plane(src.data(), s + 2 * plane, tmp.data(), h, w);
+        blur_plane(src.data(), s + 2 * plane, tmp.data(), row.data(), h, w);
         for (int64_t i = 0; i < plane; ++i) src[i] = y[i] * y[i];
-        blur_plane(src.data(), s + 3 * plane, tmp.data(), h, w);
+        blur_plane(src.data(), s + 3 * plane, tmp.data(), row.data(), h, w);
         for (int64_t i = 0; i < plane; ++i) src[i] = x[i] * y[i];
-        blur_plane(src.data(), s + 4 * plane, tmp.data(), h, w);
+        blur_plane(src.data(), s + 4 * plane, tmp.data(), row.data(), h, w);
         double total = 0;
         for (int64_t i = 0; i < plane; ++i) {
           const float ma = s[i], mb = s[plane + i];
@@ -107,6 +112,7 @@ class FusedSsim : public torch::autograd::Function<FusedSsim> {
     float* pg = grad.data_ptr<float>();
     at::parallel_for(0, planes, 1, [&](int64_t begin, int64_t end) {
       std::vector<float> d_ma(plane), d_saa(plane), d_sab(plane), tmp(plane), blurred(plane);
+      std::vector<float> row(w + 2 * kRadius);
       for (int64_t p = begin; p < end; ++p) {
         const float* s = ps + p * 5 * plane;
         // dS/d(blurred a), dS/d(blurred a^2), dS/d(blurred ab) per pixel.
@@ -123,10 +129,10 @@ class FusedSsim : public torch::autograd::Function<FusedSsim> {
         const float* x = pa + p * plane;
         const float* y = pb + p * plane;
         float* g = pg + p * plane;
-        blur_plane(d_ma.data(), g, tmp.data(), h, w);
-        blur_plane(d_saa.data(), blurred.data(), tmp.data(), h, w);
+        blur_plane(d_ma.data(), g, tmp.data(), row.data(), h, w);
+        blur_plane(d_saa.data(), blurred.data(), tmp.data(), row.data(), h, w);
         for (int64_t i = 0; i < plane; ++i) g[i] += 2 * x[i] * blurred[i];
-        blur_plane(d_sab.data(), blurred.data(), tmp.data(), h, w);
+        blur_plane(d_sab.data(), blurred.data(), tmp.data(), row.data(), h, w);
         for (int64_t i = 0; i < plane; ++i) g[i] += y[i] * blurred[i];
       }
     });
