@@ -26,12 +26,6 @@ struct ViewF {
 };
 
 
-// Below this ratio the Mip-Splatting compensation is floored (as its reference code does).
-constexpr real kMinMipRatio = 0.000025f;
-// Inria floors the eigenvalue discriminant so that near-isotropic footprints get a safe radius.
-constexpr real kMinDiscriminant = 0.1f;
-constexpr real kMinAlpha = 1.0f / 255.0f;
-
 // Everything the forward computes per Gaussian that the backward needs again. The math runs in real:
 // it is per Gaussian (cheap), and the backward recomputes it instead of storing it.
 struct Geometry {
@@ -119,58 +113,6 @@ bool compute_geometry(const float* mu, const float* ls, const float* q, const Vi
 inline real sigmoid(real x) { return 1.0f / (1.0f + std::exp(-x)); }
 
 }  // namespace
-
-void project_forward(int64_t n, const float* means, const float* log_scales, const float* quats,
-                     const float* opacity_logits, const Viewpoint& view, const Projected& out) {
-  const ViewF v(view);
-  const int gx = view.tiles_x(), gy = view.tiles_y();
-#pragma omp parallel for schedule(static)
-  for (int64_t i = 0; i < n; ++i) {
-    Geometry g;
-    int32_t* rect = out.rect + 4 * i;
-    out.radii[i] = 0;
-    rect[0] = rect[1] = rect[2] = rect[3] = 0;
-    out.xy[2 * i] = out.xy[2 * i + 1] = 0;
-    out.depth[i] = 0;
-    out.conic[3 * i] = out.conic[3 * i + 1] = out.conic[3 * i + 2] = 0;
-    out.opacity[i] = 0;
-    out.extent[2 * i] = out.extent[2 * i + 1] = 0;
-    if (!compute_geometry(means + 3 * i, log_scales + 3 * i, quats + 4 * i, v, g)) continue;
-    const real z = g.p[2];
-    const real u = v.fx * g.p[0] / z + v.cx, w = v.fy * g.p[1] / z + v.cy;
-    const real mid = 0.5f * (g.a + g.c);
-    const real lambda = mid + std::sqrt(std::max(kMinDiscriminant, mid * mid - g.det));
-    // Splats projecting 1e7 px away or 1e7 px wide would overflow the int arithmetic below: they are culled
-    // (the first kind is off-screen anyway; the second is a degenerate, uniform veil).
-    constexpr real kBound = 1e7f;
-    if (!(std::abs(u) < kBound && std::abs(w) < kBound && lambda < kBound * kBound)) continue;
-    const int radius = static_cast<int>(std::ceil(3.0f * std::sqrt(lambda)));
-    // Inria's tile rectangle, written in its pixel coordinates (ours − 0.5) so that it bins identically.
-    const real px = u - 0.5f, py = w - 0.5f;
-    const int x0 = std::min(gx, std::max(0, static_cast<int>((px - radius) / kTileSize)));
-    const int y0 = std::min(gy, std::max(0, static_cast<int>((py - radius) / kTileSize)));
-    const int x1 = std::min(gx, std::max(0, static_cast<int>((px + radius + kTileSize - 1) / kTileSize)));
-    const int y1 = std::min(gy, std::max(0, static_cast<int>((py + radius + kTileSize - 1) / kTileSize)));
-    if ((x1 - x0) * (y1 - y0) == 0) continue;
-    const real o = sigmoid(opacity_logits[i]) * g.comp;
-    out.radii[i] = radius;
-    out.xy[2 * i] = static_cast<float>(u);
-    out.xy[2 * i + 1] = static_cast<float>(w);
-    out.depth[i] = static_cast<float>(z);
-    out.conic[3 * i] = static_cast<float>(g.c / g.det);
-    out.conic[3 * i + 1] = static_cast<float>(-g.b / g.det);
-    out.conic[3 * i + 2] = static_cast<float>(g.a / g.det);
-    out.opacity[i] = static_cast<float>(o);
-    // α = o·e^−σ >= 1/255 needs σ <= ln(255·o); the ellipse ½dᵀΣ'⁻¹d <= s spans ±√(2s·Σ'xx) in x. The box
-    // only saves work: it is widened so that float rounding in the rasterizer can never fall outside it.
-    const real s_max = std::log(o / kMinAlpha);
-    if (s_max > 0) {
-      out.extent[2 * i] = static_cast<float>(std::sqrt(2 * s_max * g.a) * 1.0001f + 1e-3f);
-      out.extent[2 * i + 1] = static_cast<float>(std::sqrt(2 * s_max * g.c) * 1.0001f + 1e-3f);
-      rect[0] = x0, rect[1] = y0, rect[2] = x1, rect[3] = y1;
-    }
-  }
-}
 
 void project_backward(int64_t n, const float* means, const float* log_scales, const float* quats,
                       const float* opacity_logits, const int32_t* radii, const Viewpoint& view,

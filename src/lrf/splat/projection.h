@@ -1,11 +1,20 @@
 #pragma once
 // Per-Gaussian projection of 3D Gaussians to screen-space conics (EWA splatting with the 3DGS conventions)
-// and its exact backward. Plain loops over raw arrays, so that another backend can reuse the math.
+// and its exact backward. Plain loops over raw arrays, so that another backend can reuse the math: the
+// forward in projection_lanes.h (vector lanes), the backward in projection.cpp (one Gaussian at a time:
+// it only runs for the Gaussians that received a gradient).
 #include <cstdint>
 
 namespace lrf::splat {
 
 constexpr int kTileSize = 16;
+// Inria floors the eigenvalue discriminant so that near-isotropic footprints get a safe radius.
+constexpr float kMinDiscriminant = 0.1f;
+// Below this ratio the Mip-Splatting compensation is floored (as its reference code does).
+constexpr float kMinMipRatio = 0.000025f;
+// Splats projecting 1e7 px away or 1e7 px wide would overflow the tile arithmetic: they are culled (the
+// first kind is off-screen anyway; the second is a degenerate, uniform veil).
+constexpr float kFarBound = 1e7f;
 
 // Everything about the view that the kernels need, as plain numbers.
 struct Viewpoint {
@@ -32,6 +41,8 @@ struct Projected {
   int32_t* rect;   // [N,4] tiles [x0, x1) × [y0, y1) the Gaussian is binned to; empty when it cannot show
 };
 
+// Runs kWidth Gaussians at a time, at the vector width the compositing uses (projection_lanes.h,
+// raster_dispatch.cpp); every width gives the same bits.
 void project_forward(int64_t n, const float* means, const float* log_scales, const float* quats,
                      const float* opacity_logits, const Viewpoint& v, const Projected& out);
 

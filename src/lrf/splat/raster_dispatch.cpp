@@ -1,5 +1,6 @@
 #include <atomic>
 
+#include "lrf/splat/projection.h"
 #include "lrf/splat/raster_kernels.h"
 #include "lrf/splat/raster_widths.h"
 
@@ -10,12 +11,15 @@ struct Kernels {
   int width;
   void (*forward)(const RasterInputs&, const ColorSource&, const RasterForwardOutputs&);
   void (*backward)(int64_t, const RasterInputs&, const RasterBackwardInputs&, const RasterGrads&);
+  void (*project)(int64_t, const float*, const float*, const float*, const float*, const Viewpoint&,
+                  const Projected&);
 };
 
-const Kernels kScalar{1, widths::forward_scalar, widths::backward_scalar};
-const Kernels kBaseline{widths::baseline_width(), widths::forward_baseline, widths::backward_baseline};
+const Kernels kScalar{1, widths::forward_scalar, widths::backward_scalar, widths::project_scalar};
+const Kernels kBaseline{widths::baseline_width(), widths::forward_baseline, widths::backward_baseline,
+                         widths::project_baseline};
 #if defined(LRF_AVX2_KERNELS)
-const Kernels kAvx2{8, widths::forward_avx2, widths::backward_avx2};
+const Kernels kAvx2{8, widths::forward_avx2, widths::backward_avx2, widths::project_avx2};
 #endif
 
 // The kernels of that width, if this build has them and this CPU can run them.
@@ -49,6 +53,11 @@ void rasterize_forward(const RasterInputs& in, const ColorSource& source, const 
 
 void rasterize_backward(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out) {
   chosen().load()->backward(n, in, bin, out);
+}
+
+void project_forward(int64_t n, const float* means, const float* log_scales, const float* quats,
+                     const float* opacity_logits, const Viewpoint& view, const Projected& out) {
+  chosen().load()->project(n, means, log_scales, quats, opacity_logits, view, out);
 }
 
 }  // namespace lrf::splat

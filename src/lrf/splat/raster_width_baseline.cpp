@@ -1,3 +1,4 @@
+#include "lrf/splat/projection_lanes.h"
 #include "lrf/splat/raster_tiles.h"
 #include "lrf/splat/raster_widths.h"
 
@@ -17,6 +18,11 @@ void backward_baseline(int64_t n, const RasterInputs& in, const RasterBackwardIn
   tiles::backward_any<Baseline>(n, in, bin, out);
 }
 
+void project_baseline(int64_t n, const float* means, const float* log_scales, const float* quats,
+                 const float* opacity_logits, const Viewpoint& view, const Projected& out) {
+  lanes::project_forward<Baseline>(n, means, log_scales, quats, opacity_logits, view, out);
+}
+
 int baseline_width() { return Baseline::kWidth; }
 
 void forward_scalar(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out) {
@@ -25,6 +31,11 @@ void forward_scalar(const RasterInputs& in, const ColorSource& source, const Ras
 
 void backward_scalar(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out) {
   tiles::backward_any<simd::Scalar>(n, in, bin, out);
+}
+
+void project_scalar(int64_t n, const float* means, const float* log_scales, const float* quats,
+                 const float* opacity_logits, const Viewpoint& view, const Projected& out) {
+  lanes::project_forward<simd::Scalar>(n, means, log_scales, quats, opacity_logits, view, out);
 }
 
 }  // namespace lrf::splat::widths
