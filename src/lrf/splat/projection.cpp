@@ -119,7 +119,9 @@ void project_backward(int64_t n, const float* means, const float* log_scales, co
                       const ProjectedGrads& gin, float* d_means, float* d_log_scales, float* d_quats,
                       float* d_opacity_logits) {
   const ViewF v(view);
-#pragma omp parallel for schedule(static)
+// Dynamic: only the Gaussians that received a gradient cost anything, and a Z-ordered field keeps them in
+// runs (each row is independent, so the split does not change any result).
+#pragma omp parallel for schedule(dynamic, 512)
   for (int64_t i = 0; i < n; ++i) {
     float* dm = d_means + 3 * i;
     float* dls = d_log_scales + 3 * i;

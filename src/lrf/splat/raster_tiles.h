@@ -325,7 +325,8 @@ void backward(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin
 #pragma omp for schedule(static, 1)
     for (int tile = 0; tile < tiles; ++tile) backward_tile<kC, V>(tile, in, bin, buf, grad_pixels.data(), dcol);
   }
-#pragma omp parallel for schedule(static)
+  // Dynamic: the touched Gaussians come in runs (Z order); each row is summed on its own, whatever the split.
+#pragma omp parallel for schedule(dynamic, 512)
   for (int64_t i = 0; i < n; ++i) {
     float sum[kGeomGrads] = {0, 0, 0, 0, 0, 0, 0};
     float* dc = out.colors + i * C;

@@ -91,7 +91,9 @@ void backward_impl(int64_t n, int k_stored, int channels, int degree, const floa
   {
     std::vector<float> gc_buf(C);
     float* gc = gc_buf.data();
-#pragma omp for schedule(static)
+    // Dynamic: only the Gaussians whose colour was used cost anything, and a Z-ordered field keeps them in
+    // runs (each row is independent, so the split does not change any result).
+#pragma omp for schedule(dynamic, 512)
     for (int64_t i = 0; i < n; ++i) {
       float* dsh = d_sh + i * k_stored * C;
       std::fill(dsh, dsh + k_stored * C, 0.f);
