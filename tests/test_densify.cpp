@@ -187,3 +187,19 @@ TEST(Densify, SortSpatiallyFollowsTheZCurveAndKeepsMomentsAligned) {
   EXPECT_TRUE(f.g.means.requires_grad() && f.g.means.is_leaf());
   EXPECT_EQ(f.adam.steps_taken(), 3);
 }
+
+TEST(Densify, StatisticsCountOnlyVisibleRows) {
+  Densifier d(3);
+  auto grad = torch::tensor({{3.f, 4.f}, {1.f, 0.f}, {0.f, 2.f}});
+  d.accumulate(grad, torch::tensor({2, 0, 7}, torch::kInt32));
+  d.accumulate(grad * 2, torch::tensor({5, 0, 3}, torch::kInt32));
+  // Row 0: |(3, 4)| + |(6, 8)| over two views, largest radius 5; row 1 was never visible.
+  EXPECT_FLOAT_EQ(d.grad_accum[0].item<float>(), 15.f);
+  EXPECT_FLOAT_EQ(d.denom[0].item<float>(), 2.f);
+  EXPECT_FLOAT_EQ(d.max_radii[0].item<float>(), 5.f);
+  EXPECT_FLOAT_EQ(d.grad_accum[1].item<float>(), 0.f);
+  EXPECT_FLOAT_EQ(d.denom[1].item<float>(), 0.f);
+  EXPECT_FLOAT_EQ(d.max_radii[1].item<float>(), 0.f);
+  EXPECT_FLOAT_EQ(d.grad_accum[2].item<float>(), 6.f);
+  EXPECT_FLOAT_EQ(d.max_radii[2].item<float>(), 7.f);
+}

@@ -5,6 +5,7 @@
 
 #include <ATen/ATen.h>
 #include <ATen/CPUGeneratorImpl.h>
+#include <ATen/Parallel.h>
 
 #include "lrf/splat/spatial_order.h"
 
@@ -42,11 +43,27 @@ void Densifier::resize(int64_t n) {
 }
 
 void Densifier::accumulate(const torch::Tensor& means2d_grad, const torch::Tensor& radii) {
-  auto visible = radii > 0;
-  auto norm = means2d_grad.detach().narrow(1, 0, 2).norm(2, 1);
-  grad_accum.add_(torch::where(visible, norm, torch::zeros_like(norm)));
-  denom.add_(visible.to(torch::kFloat32));
-  max_radii.copy_(torch::where(visible, torch::maximum(max_radii, radii.to(torch::kFloat32)), max_radii));
+  // One pass instead of eight tensor operations: this runs every step, over every Gaussian.
+  const auto grad = means2d_grad.detach().to(torch::kFloat32).contiguous();
+  const auto r = radii.to(torch::kInt32).contiguous();
+  TORCH_CHECK(grad.dim() == 2 && grad.size(1) >= 2 && grad.size(0) == grad_accum.size(0) &&
+                  r.numel() == grad_accum.size(0),
+              "densification statistics out of step with the field");
+  const int64_t n = grad_accum.size(0), stride = grad.size(1);
+  const float* g = grad.data_ptr<float>();
+  const int32_t* rp = r.data_ptr<int32_t>();
+  float* acc = grad_accum.data_ptr<float>();
+  float* den = denom.data_ptr<float>();
+  float* mr = max_radii.data_ptr<float>();
+  at::parallel_for(0, n, 16384, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      if (rp[i] <= 0) continue;
+      const float gx = g[stride * i], gy = g[stride * i + 1];
+      acc[i] += std::sqrt(gx * gx + gy * gy);
+      den[i] += 1.f;
+      mr[i] = std::max(mr[i], static_cast<float>(rp[i]));
+    }
+  });
 }
 
 DensifyStats Densifier::densify_and_prune(Gaussians& g, GaussianAdam& adam, double extent, bool prune_screen_size,
