@@ -41,6 +41,20 @@ struct ColorSource {
   uint8_t* state;   // [N], zeros on entry
   void (*evaluate)(const void* ctx, int64_t g, float* out);
   const void* ctx;
+  // Where evaluate reads Gaussian g's inputs: row_bytes at rows + g·row_stride (its SH coefficients) and
+  // 12 bytes at point + 3g (its mean). The tile loop prefetches them a few entries ahead for colours not yet evaluated:
+  // a first evaluation otherwise waits on cache misses, the field being too large for the cache.
+  const char* rows = nullptr;
+  int64_t row_stride = 0, row_bytes = 0;
+  const float* point = nullptr;
+
+  void prefetch(int64_t g) const {
+    if (!rows || __atomic_load_n(state + g, __ATOMIC_RELAXED) == 2) return;
+    const char* row = rows + g * row_stride;
+    for (int64_t b = 0; b < row_bytes; b += 64) __builtin_prefetch(row + b);
+    __builtin_prefetch(row + row_bytes - 1);
+    __builtin_prefetch(point + 3 * g);
+  }
 
   const float* get(int64_t g, int C) const {
     float* out = colors + g * C;

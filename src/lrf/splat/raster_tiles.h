@@ -70,7 +70,10 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
   for (int32_t k = begin; k < end && remaining > 0; ++k) {
     const int32_t g = in.tile_ids[k];
     const int32_t pos = k - begin;
-    if (k + kPrefetchDistance < end) prefetch_splat(in, in.tile_ids[k + kPrefetchDistance]);
+    if (k + kPrefetchDistance < end) {
+      prefetch_splat(in, in.tile_ids[k + kPrefetchDistance]);
+      source.prefetch(in.tile_ids[k + kPrefetchDistance]);
+    }
     const float gx = in.xy[2 * g], gy = in.xy[2 * g + 1];
     const PixelSpan span = splat_span(gx, gy, in.extent[2 * g], in.extent[2 * g + 1], x0, y0, x1, y1);
     if (span.empty()) continue;

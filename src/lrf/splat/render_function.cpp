@@ -113,7 +113,11 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
     // Colours are evaluated by the rasterizer when a splat is first blended (see ColorSource).
     auto color_state = torch::zeros({n}, torch::kUInt8);
     const ShContext sh_ctx{k_stored, C, s.sh_degree, sh.data_ptr<float>(), means.data_ptr<float>(), v.campos};
-    const ColorSource source{colors.data_ptr<float>(), color_state.data_ptr<uint8_t>(), &evaluate_color, &sh_ctx};
+    ColorSource source{colors.data_ptr<float>(), color_state.data_ptr<uint8_t>(), &evaluate_color, &sh_ctx};
+    source.rows = reinterpret_cast<const char*>(sh.data_ptr<float>());
+    source.row_stride = static_cast<int64_t>(sizeof(float)) * k_stored * C;
+    source.row_bytes = static_cast<int64_t>(sizeof(float)) * (s.sh_degree + 1) * (s.sh_degree + 1) * C;
+    source.point = means.data_ptr<float>();
     TileBins bins = bin_gaussians(n, depth.data_ptr<float>(), rect.data_ptr<int32_t>(), v.tiles_x(), v.tiles_y());
     auto offsets = adopt(std::move(bins.offsets)), ids = adopt(std::move(bins.ids));
 
