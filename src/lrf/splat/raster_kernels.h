@@ -42,8 +42,8 @@ struct ColorSource {
   void (*evaluate)(const void* ctx, int64_t g, float* out);
   const void* ctx;
   // Where evaluate reads Gaussian g's inputs: row_bytes at rows + g·row_stride (its SH coefficients) and
-  // 12 bytes at point + 3g (its mean). The tile loop prefetches them a few entries ahead for colours not yet evaluated:
-  // a first evaluation otherwise waits on cache misses, the field being too large for the cache.
+  // 12 bytes at point + 3g (its mean). The tile loop prefetches them a few entries ahead for colours not
+  // yet evaluated: a first evaluation otherwise waits on cache misses in a field larger than the cache.
   const char* rows = nullptr;
   int64_t row_stride = 0, row_bytes = 0;
   const float* point = nullptr;
