@@ -9,14 +9,12 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <string>
 #include <vector>
 
 #include <torch/torch.h>
 
 #include "lrf/core/allocator.h"
-#include "lrf/core/error.h"
 #include "lrf/core/threads.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/ply_io.h"

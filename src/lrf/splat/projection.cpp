@@ -9,7 +9,7 @@ namespace lrf::splat {
 namespace {
 
 // Per-Gaussian math runs in float: it is ample for a 2×2 conic (the dilation keeps det Σ2' >= 0.09) and
-// about twice as fast as double here, where projection is a large share of a small-image iteration.
+// about twice as fast as double; the forward (projection_lanes.h) runs in float too.
 using real = float;
 
 // The view's numbers in that precision.
@@ -26,8 +26,8 @@ struct ViewF {
 };
 
 
-// Everything the forward computes per Gaussian that the backward needs again. The math runs in real:
-// it is per Gaussian (cheap), and the backward recomputes it instead of storing it.
+// The per-Gaussian quantities of the forward (projection_lanes.h computes them on vector lanes) that the
+// backward needs again: it recomputes them, one Gaussian at a time, instead of storing them.
 struct Geometry {
   real p[3];                  // camera-space mean
   real qn[4], qlen;           // normalised quaternion (w, x, y, z) and the input's norm

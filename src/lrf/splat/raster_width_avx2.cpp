@@ -16,7 +16,7 @@ void backward_avx2(int64_t n, const RasterInputs& in, const RasterBackwardInputs
 }
 
 void project_avx2(int64_t n, const float* means, const float* log_scales, const float* quats,
-                 const float* opacity_logits, const Viewpoint& view, const Projected& out) {
+                  const float* opacity_logits, const Viewpoint& view, const Projected& out) {
   lanes::project_forward<simd::Avx2>(n, means, log_scales, quats, opacity_logits, view, out);
 }
 

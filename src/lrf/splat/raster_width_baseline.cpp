@@ -19,7 +19,7 @@ void backward_baseline(int64_t n, const RasterInputs& in, const RasterBackwardIn
 }
 
 void project_baseline(int64_t n, const float* means, const float* log_scales, const float* quats,
-                 const float* opacity_logits, const Viewpoint& view, const Projected& out) {
+                      const float* opacity_logits, const Viewpoint& view, const Projected& out) {
   lanes::project_forward<Baseline>(n, means, log_scales, quats, opacity_logits, view, out);
 }
 
@@ -34,7 +34,7 @@ void backward_scalar(int64_t n, const RasterInputs& in, const RasterBackwardInpu
 }
 
 void project_scalar(int64_t n, const float* means, const float* log_scales, const float* quats,
-                 const float* opacity_logits, const Viewpoint& view, const Projected& out) {
+                    const float* opacity_logits, const Viewpoint& view, const Projected& out) {
   lanes::project_forward<simd::Scalar>(n, means, log_scales, quats, opacity_logits, view, out);
 }
 

@@ -53,7 +53,6 @@ struct Scalar {
   static F cmpgt(F a, F b) { return mask(a > b); }
   static F cmpneq(F a, F b) { return mask(a != b); }
   static F and_(F a, F b) { return as_float(as_int(a) & as_int(b)); }
-  static F or_(F a, F b) { return as_float(as_int(a) | as_int(b)); }
   static F andnot(F m, F b) { return as_float(~as_int(m) & as_int(b)); }  // (not m) and b
   static int movemask(F m) { return as_int(m) < 0 ? 1 : 0; }
   static float hsum(F v) { return v; }
@@ -101,7 +100,6 @@ struct Sse2 {
   static F cmpgt(F a, F b) { return _mm_cmpgt_ps(a, b); }
   static F cmpneq(F a, F b) { return _mm_cmpneq_ps(a, b); }
   static F and_(F a, F b) { return _mm_and_ps(a, b); }
-  static F or_(F a, F b) { return _mm_or_ps(a, b); }
   static F andnot(F m, F b) { return _mm_andnot_ps(m, b); }
   static int movemask(F m) { return _mm_movemask_ps(m); }
   static float hsum(F v) {
@@ -152,7 +150,6 @@ struct Avx2 {
   static F cmpgt(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_GT_OS); }
   static F cmpneq(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_NEQ_UQ); }
   static F and_(F a, F b) { return _mm256_and_ps(a, b); }
-  static F or_(F a, F b) { return _mm256_or_ps(a, b); }
   static F andnot(F m, F b) { return _mm256_andnot_ps(m, b); }
   static int movemask(F m) { return _mm256_movemask_ps(m); }
   static float hsum(F v) {
