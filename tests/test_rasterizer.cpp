@@ -27,11 +27,13 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdio>
 #include <numeric>
 #include <random>
 
 #include "lrf/core/error.h"
 #include "lrf/splat/binning.h"
+#include "lrf/splat/projection.h"
 #include "lrf/splat/raster_kernels.h"
 #include "lrf/splat/rasterize.h"
 #include "lrf/splat/reference.h"
@@ -576,4 +578,58 @@ TEST(Rasterizer, EveryVectorWidthGivesTheSameResult) {
   EXPECT_TRUE(set_raster_vector_width(widest));
   EXPECT_FALSE(set_raster_vector_width(3));
   EXPECT_EQ(raster_vector_width(), widest);
+}
+
+// Binning lists a Gaussian in Inria's tile rectangle cut down to the tiles its α box reaches. The cut may
+// drop only tiles where the rasterizer would draw nothing: every tile of Inria's rectangle in which the
+// splat's pixel span is not empty must stay listed. Low opacities (small α boxes) and elongated splats make
+// the cut bite, and the test checks that it does.
+TEST(Rasterizer, BinnedTilesCoverEveryPixelSpan) {
+  Scene s = make_scene(3000, 1, 0, 0, 41, 203, 157);
+  s.logits = torch::rand({3000, 1}) * 8.0 - 6.0;  // opacities 0.25 % to 88 %
+  s.log_scales.select(1, 0).add_(torch::rand({3000}) * 2.0);
+  const RasterSettings& r = s.settings;
+  lrf::splat::Viewpoint v;
+  v.width = r.width, v.height = r.height, v.fx = r.fx, v.fy = r.fy, v.cx = r.cx, v.cy = r.cy;
+  for (int a = 0; a < 3; ++a) {
+    for (int b = 0; b < 3; ++b) v.R[3 * a + b] = r.R(a, b);
+    v.t[a] = r.t(a);
+  }
+  const int64_t n = s.means.size(0);
+  std::vector<float> xy(2 * n), depth(n), conic(3 * n), opacity(n), extent(2 * n);
+  std::vector<int32_t> radii(n), rect(4 * n);
+  lrf::splat::project_forward(n, s.means.data_ptr<float>(), s.log_scales.data_ptr<float>(),
+                              s.quats.data_ptr<float>(), s.logits.data_ptr<float>(), v,
+                              {xy.data(), depth.data(), conic.data(), opacity.data(), extent.data(), radii.data(),
+                               rect.data()});
+  const int tiles_x = v.tiles_x(), tiles_y = v.tiles_y();
+  int64_t inria_tiles = 0, binned_tiles = 0, drawing_tiles = 0;
+  for (int64_t i = 0; i < n; ++i) {
+    if (radii[i] == 0) continue;
+    // Inria's rectangle, as the reference computes it.
+    const float px = xy[2 * i] - 0.5f, py = xy[2 * i + 1] - 0.5f, rad = static_cast<float>(radii[i]);
+    auto tile = [](float t, int grid) { return std::min(grid, std::max(0, static_cast<int>(t / 16))); };
+    const int ix0 = tile(px - rad, tiles_x), iy0 = tile(py - rad, tiles_y);
+    const int ix1 = tile(px + rad + 15, tiles_x), iy1 = tile(py + rad + 15, tiles_y);
+    const int32_t* b = rect.data() + 4 * i;
+    if (b[2] > b[0] && b[3] > b[1]) {
+      ASSERT_TRUE(b[0] >= ix0 && b[1] >= iy0 && b[2] <= ix1 && b[3] <= iy1) << "Gaussian " << i;
+      binned_tiles += (b[2] - b[0]) * (b[3] - b[1]);
+    }
+    inria_tiles += (ix1 - ix0) * (iy1 - iy0);
+    for (int ty = iy0; ty < iy1; ++ty)
+      for (int tx = ix0; tx < ix1; ++tx) {
+        const int x0 = tx * 16, y0 = ty * 16;
+        const auto span = lrf::splat::splat_span(xy[2 * i], xy[2 * i + 1], extent[2 * i], extent[2 * i + 1], x0,
+                                                 y0, std::min(x0 + 16, v.width), std::min(y0 + 16, v.height));
+        if (span.empty()) continue;
+        ++drawing_tiles;
+        EXPECT_TRUE(tx >= b[0] && tx < b[2] && ty >= b[1] && ty < b[3]) << "Gaussian " << i << " tile " << tx
+                                                                        << "," << ty;
+      }
+  }
+  EXPECT_GT(drawing_tiles, 1000);
+  EXPECT_LT(binned_tiles, inria_tiles * 0.9) << "the cut removed almost nothing";
+  std::printf("tiles: Inria %lld, binned %lld, with a non-empty span %lld\n", static_cast<long long>(inria_tiles),
+              static_cast<long long>(binned_tiles), static_cast<long long>(drawing_tiles));
 }
