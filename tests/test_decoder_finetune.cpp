@@ -7,6 +7,7 @@
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/field/latent_run.h"
@@ -108,6 +109,13 @@ TEST_F(DecoderFinetune, BadInputIsReported) {
   o.fields.clear();
   EXPECT_NE(error_of([&] { lrf::finetune_decoder(o); }).find("--fields"), std::string::npos);
   EXPECT_FALSE(fs::exists(*dir_ / "bad.safetensors"));
+  // An existing output is kept unless --force; --resume needs a checkpoint.
+  o = options(*dir_ / "taken.safetensors");
+  lrf::write_file_atomic(o.out, "someone's file");
+  EXPECT_NE(error_of([&] { lrf::finetune_decoder(o); }).find("already exists"), std::string::npos);
+  o.resume = true;
+  EXPECT_NE(error_of([&] { lrf::finetune_decoder(o); }).find("no checkpoint"), std::string::npos);
+  EXPECT_EQ(lrf::read_file(o.out), "someone's file");
 }
 
 }  // namespace

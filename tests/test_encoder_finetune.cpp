@@ -7,6 +7,7 @@
 
 #include "lrf/align/correspondence_loss.h"
 #include "lrf/autoencoder/kl_vae.h"
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/finetune/consistency.h"
@@ -218,6 +219,12 @@ TEST(EncoderFinetune, BadInputIsReported) {
   o.resume = true;
   EXPECT_NE(error_of([&] { lrf::finetune_encoder(o); }).find("no checkpoint"), std::string::npos);
   EXPECT_FALSE(fs::exists(o.out));
+
+  // An existing output is kept unless --force.
+  o = tiny_options(dir / "taken.safetensors");
+  lrf::write_file_atomic(o.out, "someone's file");
+  EXPECT_NE(error_of([&] { lrf::finetune_encoder(o); }).find("already exists"), std::string::npos);
+  EXPECT_EQ(lrf::read_file(o.out), "someone's file");
 
   auto r = lrf::test::run_lrf("finetune-encoder --scenes " + (dir / "missing") + " -o " + (dir / "x.safetensors"));
   EXPECT_EQ(r.exit_code, 1);

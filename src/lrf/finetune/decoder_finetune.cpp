@@ -10,13 +10,13 @@
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
-#include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
 #include "lrf/field/latent_cache.h"
 #include "lrf/field/latent_run.h"
 #include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/finetune/finetune_output.h"
 
 namespace fs = std::filesystem;
 
@@ -98,11 +98,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");
   const std::string ckpt = decoder_checkpoint_path(o.out);
-  if (fs::path(o.out).has_parent_path()) fs::create_directories(fs::path(o.out).parent_path());
-  // Taken before the checks below so that a second job cannot remove or overwrite this one's checkpoint.
-  const auto lock = FolderLock::for_output_file(o.out);
-  if (fs::exists(o.out) && !o.force && !o.resume) fail(o.out, "already exists (use --force to overwrite)");
-  if (o.resume && !fs::exists(ckpt)) fail(ckpt, "no checkpoint to resume from");
+  const auto lock = claim_finetune_output(o.out, ckpt, o.force, o.resume);
 
   std::vector<Sample> train, novel;
   nlohmann::json scenes = nlohmann::json::array();
@@ -162,10 +158,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
       loss = loss + o.weight_novel * l;
     }
     const double total = loss.item<double>();
-    if (!std::isfinite(total)) {
-      fail(o.out, "loss is " + std::to_string(total) + " at step " + std::to_string(step + 1) +
-                      "; stopped (the last checkpoint, if any, is " + ckpt + ")");
-    }
+    if (!std::isfinite(total)) fail_non_finite_loss(o.out, total, step + 1, ckpt);
     loss.backward();
     adam.step();
     r.last_loss = total;

@@ -9,12 +9,12 @@
 #include "lrf/align/correspondence_loss.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/core/error.h"
-#include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
 #include "lrf/field/latent_cache.h"
 #include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/finetune/finetune_output.h"
 
 namespace lrf {
 namespace {
@@ -132,11 +132,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   if (o.out.empty()) fail("finetune-encoder: no output file (-o)");
   if (o.steps < 1 || o.batch.pairs < 1) fail("finetune-encoder: --steps and --pairs must be at least 1");
   const std::string ckpt = finetune_checkpoint_path(o.out);
-  if (fs::path(o.out).has_parent_path()) fs::create_directories(fs::path(o.out).parent_path());
-  // Taken before the checks below so that a second job cannot remove or overwrite this one's checkpoint.
-  const auto lock = FolderLock::for_output_file(o.out);
-  if (fs::exists(o.out) && !o.force && !o.resume) fail(o.out, "already exists (use --force to overwrite)");
-  if (o.resume && !fs::exists(ckpt)) fail(ckpt, "no checkpoint to resume from");
+  const auto lock = claim_finetune_output(o.out, ckpt, o.force, o.resume);
   if (!o.resume && fs::exists(ckpt)) fs::remove(ckpt);
 
   std::vector<PairScene> scenes;
@@ -179,10 +175,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
     adam.zero_grad();
     Stage1Losses l = stage1_losses(*model, *original, batch, o);
     const double total = l.total.item<double>();
-    if (!std::isfinite(total)) {
-      fail(o.out, "loss is " + std::to_string(total) + " at step " + std::to_string(step + 1) +
-                      "; stopped (the last checkpoint, if any, is " + ckpt + ")");
-    }
+    if (!std::isfinite(total)) fail_non_finite_loss(o.out, total, step + 1, ckpt);
     l.total.backward();
     adam.step();
     result.last_total = total;

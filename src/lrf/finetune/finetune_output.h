@@ -1,0 +1,20 @@
+#pragma once
+// What Stage I and Stage III do alike around their output file OUT (OUT.safetensors, its record and its
+// checkpoint): claim it before any work, and stop with one clear error when the loss stops being finite.
+#include <cstdint>
+#include <string>
+
+#include "lrf/core/folder_lock.h"
+
+namespace lrf {
+
+// Creates OUT's folder, locks OUT against a second job (before the checks, so that a second job cannot
+// remove or overwrite this one's checkpoint), and refuses an existing OUT unless force or resume; resume
+// needs the checkpoint. Hold the returned lock while writing.
+FolderLock claim_finetune_output(const std::string& out, const std::string& checkpoint, bool force, bool resume);
+
+// Throws lrf::Error naming OUT, the loss, the 1-based step and the last checkpoint.
+[[noreturn]] void fail_non_finite_loss(const std::string& out, double loss, int64_t step,
+                                       const std::string& checkpoint);
+
+}  // namespace lrf
