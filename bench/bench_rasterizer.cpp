@@ -1,11 +1,12 @@
 // Rasterizer timings per stage (projection, SH of every visible Gaussian, binning/sort, forward incl. the
 // lazily evaluated colours render() uses, backward) for the two cases of
-// issue 3, with 1 and 2 threads, plus the full render()+backward through torch autograd and render FPS.
+// issue 3, with 1 and 2 threads, plus the full render()+backward through torch autograd, render FPS and the
+// training loss at each case's size.
 //   (a) 63×47 px, C = 32, 50k Gaussians (latent resolution of fern images_8 with TAEF2), SH degree 0/1/3
 //   (b) 504×378 px, C = 3, 100k Gaussians (RGB at images_8), SH degree 0/1/3
 // Scenes: Gaussians spread through the view frustum at depths 2–8 with projected sizes log-uniform over a
 // few pixels and logits uniform in [−2, 4] (a mix of faint and opaque splats, as a trained field has).
-// Usage: bench_rasterizer [reps] [max threads] [a|a3|b|fps|""] [vector width 1|4|8, default the widest]
+// Usage: bench_rasterizer [reps] [max threads] [a|a3|b|fps|loss|""] [vector width 1|4|8, default the widest]
 #include <omp.h>
 
 #include <algorithm>
@@ -21,6 +22,7 @@
 
 #include "lrf/core/allocator.h"
 #include "lrf/splat/binning.h"
+#include "lrf/splat/loss.h"
 #include "lrf/splat/projection.h"
 #include "lrf/splat/raster_kernels.h"
 #include "lrf/splat/rasterize.h"
@@ -171,6 +173,28 @@ void bench_fps(int threads, int reps) {
   std::printf("render 504x378 C=3 N=100000 deg=3 thr=%d: %.2f ms = %.1f FPS\n", threads, ms, 1000.0 / ms);
 }
 
+// The training loss (0.8·L1 + 0.2·(1 − SSIM)) at a case's image size: forward alone, and forward + backward,
+// so that a training step's backward can be split into the loss's part and the rasterizer's.
+void bench_loss(const char* name, int width, int height, int C, int threads, int reps) {
+  omp_set_num_threads(threads);
+  at::set_num_threads(threads);
+  torch::manual_seed(0);
+  const auto target = torch::rand({C, height, width});
+  const auto image = torch::rand({C, height, width}).requires_grad_(true);
+  double t_fwd = 0, t_both = 0;
+  {
+    torch::NoGradGuard ng;
+    t_fwd = median_ms(reps, [&] { photometric_loss(image, target).item<double>(); });
+  }
+  t_both = median_ms(reps, [&] {
+    image.mutable_grad() = torch::Tensor();
+    photometric_loss(image, target).backward();
+  });
+  std::printf("%-4s %4dx%-4d C=%-2d loss thr=%d | forward %6.2f  forward+backward %6.2f  (backward %6.2f) ms\n", name,
+              width, height, C, threads, t_fwd, t_both, t_both - t_fwd);
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -188,6 +212,10 @@ int main(int argc, char** argv) {
       if (only == "a3") bench_case("(a)", 63, 47, 50000, 32, 3, 0.3, 3.0, threads, reps);
       if (only == "b") bench_case("(b)", 504, 378, 100000, 3, 1, 0.7, 8.0, threads, reps);
       if (only == "fps") bench_fps(threads, reps);
+      if (only == "loss") {
+        bench_loss("(a)", 63, 47, 32, threads, reps);
+        bench_loss("(b)", 504, 378, 3, threads, reps);
+      }
     }
     return 0;
   }
@@ -197,6 +225,8 @@ int main(int argc, char** argv) {
     for (int degree : {0, 1, 3}) bench_case("(a)", 63, 47, 50000, 32, degree, 0.3, 3.0, threads, reps);
     for (int degree : {0, 1, 3}) bench_case("(b)", 504, 378, 100000, 3, degree, 0.7, 8.0, threads, reps);
     bench_fps(threads, reps);
+    bench_loss("(a)", 63, 47, 32, threads, reps);
+    bench_loss("(b)", 504, 378, 3, threads, reps);
   }
   return 0;
 }
