@@ -18,8 +18,8 @@
 #include "lrf/core/threads.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/ply_io.h"
-#include "lrf/splat/raster_kernels.h"
-#include "lrf/splat/rasterize.h"
+#include "lrf/splat/raster/raster_kernels.h"
+#include "lrf/splat/raster/rasterize.h"
 
 namespace {
 

@@ -21,12 +21,12 @@
 #include <torch/torch.h>
 
 #include "lrf/core/allocator.h"
-#include "lrf/splat/binning.h"
-#include "lrf/splat/loss.h"
-#include "lrf/splat/projection.h"
-#include "lrf/splat/raster_kernels.h"
-#include "lrf/splat/rasterize.h"
-#include "lrf/splat/sh.h"
+#include "lrf/splat/raster/binning.h"
+#include "lrf/splat/train/loss.h"
+#include "lrf/splat/raster/projection.h"
+#include "lrf/splat/raster/raster_kernels.h"
+#include "lrf/splat/raster/rasterize.h"
+#include "lrf/splat/raster/sh.h"
 
 using namespace lrf::splat;
 

@@ -22,9 +22,9 @@
 
 #include "lrf/core/allocator.h"
 #include "lrf/core/threads.h"
-#include "lrf/splat/densify.h"
-#include "lrf/splat/raster_kernels.h"
-#include "lrf/splat/trainer.h"
+#include "lrf/splat/train/densify.h"
+#include "lrf/splat/raster/raster_kernels.h"
+#include "lrf/splat/train/trainer.h"
 
 using namespace lrf::splat;
 

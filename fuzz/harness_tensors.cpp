@@ -11,8 +11,8 @@
 #include "lrf/core/pickle.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/core/torch_zip.h"
-#include "lrf/field/latent_config.h"
-#include "lrf/splat/field_config.h"
+#include "lrf/latent/latent_config.h"
+#include "lrf/splat/run/run_config.h"
 #include "lrf/splat/ply_io.h"
 
 namespace lrf::fuzz {

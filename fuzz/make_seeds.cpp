@@ -15,11 +15,11 @@
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
-#include "lrf/field/latent_normalization.h"
+#include "lrf/latent/latent_normalization.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/scene.h"
 #include "lrf/scene/synthetic_scene.h"
-#include "lrf/splat/field_run.h"
+#include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/ply_io.h"
 

@@ -3,9 +3,9 @@
 // or undefined float-to-int conversions).
 #include <gtest/gtest.h>
 
-#include "lrf/field/latent_config.h"
+#include "lrf/latent/latent_config.h"
 #include "lrf/scene/raw_scene.h"
-#include "lrf/splat/field_config.h"
+#include "lrf/splat/run/run_config.h"
 #include "test_helpers.h"
 
 namespace {

@@ -10,7 +10,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/safetensors.h"
-#include "lrf/field/latent_run.h"
+#include "lrf/latent/latent_run.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "test_helpers.h"
 

@@ -3,8 +3,8 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "lrf/splat/densify.h"
-#include "lrf/splat/optimizer.h"
+#include "lrf/splat/train/densify.h"
+#include "lrf/splat/train/optimizer.h"
 
 using namespace lrf::splat;
 

@@ -11,7 +11,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/core/torch_zip.h"
-#include "lrf/field/latent_config.h"
+#include "lrf/latent/latent_config.h"
 #include "lrf/splat/ply_io.h"
 #include "test_helpers.h"
 

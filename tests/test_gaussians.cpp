@@ -2,7 +2,7 @@
 #include <torch/torch.h>
 
 #include "lrf/splat/gaussians.h"
-#include "lrf/splat/mip_filter.h"
+#include "lrf/splat/train/mip_filter.h"
 
 using namespace lrf::splat;
 

@@ -10,8 +10,8 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
-#include "lrf/field/latent_cache.h"
-#include "lrf/field/latent_run.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_run.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;

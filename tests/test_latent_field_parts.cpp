@@ -3,8 +3,8 @@
 #include <torch/torch.h>
 
 #include "lrf/core/error.h"
-#include "lrf/field/latent_init.h"
-#include "lrf/field/latent_normalization.h"
+#include "lrf/latent/latent_init.h"
+#include "lrf/latent/latent_normalization.h"
 
 namespace {
 

@@ -2,7 +2,7 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "lrf/splat/optimizer.h"
+#include "lrf/splat/train/optimizer.h"
 
 using namespace lrf::splat;
 

@@ -32,11 +32,11 @@
 #include <random>
 
 #include "lrf/core/error.h"
-#include "lrf/splat/binning.h"
-#include "lrf/splat/projection.h"
-#include "lrf/splat/raster_kernels.h"
-#include "lrf/splat/rasterize.h"
-#include "lrf/splat/reference.h"
+#include "lrf/splat/raster/binning.h"
+#include "lrf/splat/raster/projection.h"
+#include "lrf/splat/raster/raster_kernels.h"
+#include "lrf/splat/raster/rasterize.h"
+#include "lrf/splat/raster/reference.h"
 
 namespace {
 

@@ -8,7 +8,7 @@
 #include <cstring>
 #include <vector>
 
-#include "lrf/splat/simd.h"
+#include "lrf/splat/raster/simd.h"
 
 namespace {
 

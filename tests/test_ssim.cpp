@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "lrf/splat/loss.h"
-#include "lrf/splat/ssim_fused.h"
+#include "lrf/splat/train/loss.h"
+#include "lrf/splat/train/ssim_fused.h"
 
 namespace {
 

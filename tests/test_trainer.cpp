@@ -5,11 +5,11 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
-#include "lrf/splat/loss.h"
+#include "lrf/splat/train/loss.h"
 #include "lrf/splat/ply_io.h"
 #include "lrf/splat/render_field.h"
-#include "lrf/splat/train_run.h"
-#include "lrf/splat/trainer.h"
+#include "lrf/splat/run/train_run.h"
+#include "lrf/splat/train/trainer.h"
 
 namespace fs = std::filesystem;
 using namespace lrf::splat;

@@ -5,7 +5,7 @@
 
 #include "command.h"
 #include "lrf/core/atomic_file.h"
-#include "lrf/field/compare.h"
+#include "lrf/compare/compare.h"
 
 namespace {
 

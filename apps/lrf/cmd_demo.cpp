@@ -8,7 +8,7 @@
 #include "lrf/autoencoder/resolve.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
-#include "lrf/field/compare.h"
+#include "lrf/compare/compare.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
 #include "lrf/scene/reprojection.h"

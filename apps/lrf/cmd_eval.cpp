@@ -3,15 +3,15 @@
 #include <memory>
 
 #include "command.h"
-#include "lrf/field/latent_run.h"
+#include "lrf/latent/latent_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
-#include "lrf/splat/field_run.h"
-#include "lrf/splat/loss.h"
-#include "lrf/splat/rgb_field.h"
+#include "lrf/splat/run/run_folder.h"
+#include "lrf/splat/train/loss.h"
+#include "lrf/rgb/rgb_field.h"
 
 namespace fs = std::filesystem;
 

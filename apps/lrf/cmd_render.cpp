@@ -5,14 +5,14 @@
 #include "command.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/safetensors.h"
-#include "lrf/field/latent_field.h"
-#include "lrf/field/latent_run.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
-#include "lrf/splat/field_run.h"
-#include "lrf/splat/rgb_field.h"
+#include "lrf/splat/run/run_folder.h"
+#include "lrf/rgb/rgb_field.h"
 
 namespace fs = std::filesystem;
 

@@ -8,11 +8,11 @@
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
-#include "lrf/field/latent_run.h"
+#include "lrf/latent/latent_run.h"
 #include "lrf/scene/scene.h"
-#include "lrf/splat/field_run.h"
-#include "lrf/splat/rgb_field.h"
-#include "lrf/splat/train_run.h"
+#include "lrf/splat/run/run_folder.h"
+#include "lrf/rgb/rgb_field.h"
+#include "lrf/splat/run/train_run.h"
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/threads.h"
-#include "lrf/splat/raster_kernels.h"
+#include "lrf/splat/raster/raster_kernels.h"
 
 namespace lrf {
 namespace {

@@ -12,7 +12,7 @@
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
-#include "lrf/field/latent_cache.h"
+#include "lrf/latent/latent_cache.h"
 #include "lrf/finetune/adam_checkpoint.h"
 #include "lrf/finetune/finetune_output.h"
 

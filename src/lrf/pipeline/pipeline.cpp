@@ -12,12 +12,12 @@
 #include "lrf/core/run_info.h"
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
-#include "lrf/field/compare.h"
-#include "lrf/field/latent_cache.h"
-#include "lrf/field/latent_run.h"
+#include "lrf/compare/compare.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_run.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
-#include "lrf/splat/train_run.h"
+#include "lrf/splat/run/train_run.h"
 
 namespace fs = std::filesystem;
 

@@ -6,7 +6,7 @@
 
 #include "lrf/scene/camera.h"
 #include "lrf/splat/gaussians.h"
-#include "lrf/splat/rasterize.h"
+#include "lrf/splat/raster/rasterize.h"
 
 namespace lrf::splat {
 

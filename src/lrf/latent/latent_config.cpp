@@ -1,0 +1,35 @@
+#include "lrf/latent/latent_config.h"
+
+#include "lrf/core/error.h"
+
+namespace lrf {
+
+LatentConfig parse_latent_config(const nlohmann::json& c, const std::string& path) {
+  LatentConfig l;
+  l.field = splat::parse_field_config(c, path);
+  if (l.field.space != "latent") fail(path, "not a latent field");
+  try {
+    l.autoencoder = c.at("autoencoder").get<std::string>();
+    l.encoder = c.value("encoder", std::string());
+    l.identity = c.at("autoencoder_identity").get<std::string>();
+    l.range = LatentRange::from_json(c.at("latent_range"), path);
+    if (c.contains("resolution")) {
+      const auto& r = c["resolution"];
+      if (!r.is_array() || r.size() != 2 || !r[0].is_number_integer() || !r[1].is_number_integer() ||
+          r[0].get<int64_t>() < 1 || r[1].get<int64_t>() < 1 || r[0].get<int64_t>() > (1 << 16) ||
+          r[1].get<int64_t>() > (1 << 16)) {
+        fail(path, "\"resolution\" must be [width, height] with 1 to 65536 pixels per side");
+      }
+      l.resolution = {r[0].get<int>(), r[1].get<int>()};
+    }
+  } catch (const nlohmann::json::exception& e) {
+    fail(path, std::string("missing or bad latent field settings: ") + e.what());
+  }
+  if (static_cast<int>(l.field.background.size()) != l.range.channels()) {
+    fail(path, "\"background\" has " + std::to_string(l.field.background.size()) + " channels, \"latent_range\" " +
+                   std::to_string(l.range.channels()));
+  }
+  return l;
+}
+
+}  // namespace lrf

@@ -1,0 +1,23 @@
+#pragma once
+// The settings of a latent field's config.json (Stage II) that reopening it needs, parsed and checked
+// without touching the file system (see splat/run/run_config.h).
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "lrf/latent/latent_normalization.h"
+#include "lrf/splat/run/run_config.h"
+
+namespace lrf {
+
+struct LatentConfig {
+  splat::FieldConfig field;  // space "latent"; background has one value per latent channel
+  std::string autoencoder, encoder, identity;
+  LatentRange range;
+  std::vector<int> resolution;  // training resolution (width, height) when recorded, else empty
+};
+
+LatentConfig parse_latent_config(const nlohmann::json& config, const std::string& config_path);
+
+}  // namespace lrf

@@ -1,0 +1,40 @@
+#pragma once
+// Stage II: a radiance field whose features are normalised latent vectors. Training targets are the
+// encoded training views (normalised per channel with the training range), rendered at latent
+// resolution (image / 8) with background 0; rendering maps the field's output back to raw latents and
+// decodes them into images at 8x the latent size.
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <torch/types.h>
+
+#include "lrf/autoencoder/autoencoder.h"
+#include "lrf/latent/latent_normalization.h"
+#include "lrf/scene/scene.h"
+#include "lrf/splat/gaussians.h"
+#include "lrf/splat/train/trainer.h"
+
+namespace lrf {
+
+// A camera at image resolution seen at latent resolution (both sizes are multiples of 8).
+Camera latent_camera(const Camera& image_camera, int factor = 8);
+
+enum class LatentInit { latents, rgb };
+LatentInit parse_latent_init(const std::string& name);
+
+struct LatentTrainingData {
+  std::vector<splat::TrainView> views;  // latent cameras, normalised latent targets
+  LatentRange range;
+  splat::Gaussians init;
+  std::string init_description;
+};
+
+// Builds the training views and the starting field from the training views' raw latents.
+LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,
+                                           LatentInit init, int sh_degree, uint64_t seed);
+
+// Decodes a normalised latent [C, h, w] from a field: denormalise (clamped) then decode -> [3, 8h, 8w].
+torch::Tensor decode_normalised(Autoencoder& ae, const LatentRange& range, const torch::Tensor& normalised);
+
+}  // namespace lrf

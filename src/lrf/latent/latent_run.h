@@ -1,0 +1,71 @@
+#pragma once
+// Stage II runs on disk: training a latent field into an output folder, and reopening one to render
+// latents, decode them and score the decoded test views.
+//
+// OUT/config.json records the scene, resolution, autoencoder (and encoder override), the latent range and
+// the training options; OUT/point_cloud.ply holds the field with C = latent channels.
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "lrf/autoencoder/autoencoder.h"
+#include "lrf/latent/latent_normalization.h"
+#include "lrf/scene/scene.h"
+#include "lrf/splat/gaussians.h"
+#include "lrf/splat/render_field.h"
+
+namespace lrf {
+
+// Default SH degree of latent fields: view-independent features. With 32 channels each extra degree
+// multiplies the feature memory and optimizer work (degree 3: 16x), and latents of a static scene are
+// largely view-independent; measured in the Stage II note.
+constexpr int kDefaultLatentShDegree = 0;
+
+struct LatentTrainOptions {
+  std::string scene, out, images, autoencoder = "taef2", encoder, init = "latents", cache_dir;
+  int downscale = 1, test_every = 8, sh_degree = 0;
+  int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
+  uint64_t seed = 0;
+  bool resume = false, force = false, sparse_adam = false;
+};
+
+struct LatentTrainResult {
+  int64_t steps = 0, gaussians = 0;
+  double seconds = 0, encode_seconds = 0;
+};
+
+LatentTrainResult train_latent_field(const LatentTrainOptions& options);
+
+struct LatentRun {
+  std::string out;
+  nlohmann::json config;
+  Scene scene;  // at the training resolution, cropped to multiples of 8
+  splat::Gaussians field;
+  splat::FieldRenderOptions render;
+  LatentRange range;
+  std::string autoencoder, encoder;
+};
+
+// Opens OUT; throws lrf::Error naming the file when it is not a finished latent run, or when the scene
+// or the autoencoder's files changed since training (the field would not match them).
+LatentRun open_latent_run(const std::string& out);
+bool is_latent_run(const std::string& out);
+
+// Renders view i's normalised latent [C, h, w] (latent resolution of the training camera).
+torch::Tensor render_latent(const LatentRun& run, int view);
+
+struct LatentEvalOptions {
+  std::string decoder;        // decoder override (Stage III) ("" = the run's autoencoder)
+  std::string lpips_weights;  // "" = LPIPS not computed ("lpips": null with the reason)
+  bool write_images = true;   // <output_dir>/eval/<name>.png decoded test views
+  std::string output_dir;     // where metrics.json and eval/ go ("" = the run folder OUT)
+};
+
+// Scores the decoded test views against the real images (at 8x the latent size): PSNR, SSIM, LPIPS, plus
+// the autoencoder's round-trip PSNR on the same views (the ceiling) and the latent-space PSNR of the
+// rendered latents against the encoded test views; writes metrics.json (in options.output_dir, default OUT)
+// and returns it.
+nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptions& options);
+
+}  // namespace lrf

@@ -1,0 +1,102 @@
+#include <filesystem>
+
+#include <torch/torch.h>
+
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/progress.h"
+#include "lrf/core/resources.h"
+#include "lrf/core/run_info.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_run.h"
+#include "lrf/splat/run/run_folder.h"
+#include "lrf/splat/run/train_run.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+
+namespace {
+nlohmann::json options_json(const LatentTrainOptions& o) {
+  return {{"scene", o.scene},       {"out", o.out},           {"images", o.images},
+          {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
+          {"downscale", o.downscale}, {"test_every", o.test_every}, {"sh_degree", o.sh_degree},
+          {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"seed", o.seed},
+          {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
+          {"checkpoint_every", o.checkpoint_every}};
+}
+}  // namespace
+
+LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
+  using namespace lrf::splat;
+  if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
+  if (o.iters < 1) fail("--iters must be at least 1");
+  LatentInit init = parse_latent_init(o.init);
+  const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
+
+  SceneOptions so;
+  so.images_dir = o.images;
+  so.downscale = o.downscale;
+  so.test_every = o.test_every;
+  so.crop_to_multiple_of_8 = true;
+  Scene scene = load_scene(o.scene, so);
+  auto ae = load_autoencoder(o.autoencoder, o.encoder);
+  const std::string ae_id = autoencoder_identity(o.autoencoder, o.encoder);
+  log_info("scene " + o.scene + ": " + std::to_string(scene.train_indices.size()) + " training views at " +
+           std::to_string(scene.views[0].camera.width) + "x" + std::to_string(scene.views[0].camera.height) +
+           " -> latents " + std::to_string(ae->latent_channels()) + "x" +
+           std::to_string(scene.views[0].camera.height / 8) + "x" + std::to_string(scene.views[0].camera.width / 8) +
+           " (" + ae->description() + ")");
+
+  Stopwatch encode_clock;
+  auto cached = encode_views_cached(scene, scene.train_indices, *ae, ae_id,
+                                    o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
+  const double encode_seconds = encode_clock.seconds();
+  log_info(std::string("training latents ") + (cached.hit ? "read from " : "encoded, cached in ") + cached.path);
+  LatentTrainingData data = prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed);
+  log_info("initial field: " + data.init_description);
+
+  TrainerOptions to;
+  to.iterations = o.iters;
+  to.sh_degree = o.sh_degree;
+  to.seed = o.seed;
+  to.sparse_adam = o.sparse_adam;
+  to.schedule = DensifySchedule::for_iterations(o.iters);
+  to.densify.max_gaussians = o.max_gaussians;
+  to.background = torch::zeros({ae->latent_channels()});
+  const double extent = scene.camera_extent();
+
+  auto config = run_record(options_json(o));
+  config.update(scene_config(o.scene, so, scene));
+  config["space"] = "latent";
+  config["sh_degree"] = o.sh_degree;
+  config["mip"] = false;
+  config["background"] = std::vector<float>(static_cast<size_t>(ae->latent_channels()), 0.0f);
+  config["extent"] = extent;
+  config["autoencoder"] = o.autoencoder;
+  config["encoder"] = o.encoder;
+  config["autoencoder_identity"] = ae_id;
+  config["latent_channels"] = ae->latent_channels();
+  config["latent_range"] = data.range.to_json();
+  config["init"] = o.init;
+  const std::string config_path = (fs::path(o.out) / "config.json").string();
+  write_json_file(config_path, config);
+
+  Trainer trainer(std::move(data.views), std::move(data.init), extent, to);
+  RunOptions ro;
+  ro.out = o.out;
+  ro.resume = o.resume;
+  ro.checkpoint_every = o.checkpoint_every;
+  ro.task = "train-latent";
+  auto summary = run_training(trainer, ro);
+  config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},
+                      {"encode_seconds", encode_seconds}, {"final_loss", summary.last_loss},
+                      {"peak_memory_mb", peak_memory_mb()}};
+  write_json_file(config_path, config);
+  log_info("wrote " + o.out + "/point_cloud.ply: " + std::to_string(summary.gaussians) + " latent Gaussians after " +
+           std::to_string(summary.steps) + " steps in " + Progress::format_duration(summary.seconds));
+  return {summary.steps, summary.gaussians, summary.seconds, encode_seconds};
+}
+
+}  // namespace lrf

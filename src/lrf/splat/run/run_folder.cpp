@@ -1,0 +1,59 @@
+#include "lrf/splat/run/run_folder.h"
+
+#include <cmath>
+#include <filesystem>
+
+#include "lrf/core/error.h"
+#include "lrf/core/run_info.h"
+#include "lrf/splat/ply_io.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf::splat {
+
+nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o, const Scene& scene) {
+  nlohmann::json j;
+  j["scene"] = fs::absolute(scene_root).lexically_normal().string();
+  j["scene_format"] = scene.format;
+  j["images"] = o.images_dir;
+  j["downscale"] = o.downscale;
+  j["crop_to_multiple_of_8"] = o.crop_to_multiple_of_8;
+  j["test_every"] = o.test_every;
+  j["test_list"] = o.test_list.empty() ? "" : fs::absolute(o.test_list).lexically_normal().string();
+  if (!scene.views.empty())
+    j["resolution"] = {scene.views.front().camera.width, scene.views.front().camera.height};
+  j["train_views"] = scene.train_indices.size();
+  j["test_views"] = scene.test_indices.size();
+  return j;
+}
+
+FieldRun open_field_run(const std::string& out) {
+  FieldRun run;
+  run.out = out;
+  const std::string config_path = (fs::path(out) / "config.json").string();
+  if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
+  run.config = read_json_file(config_path);
+  const FieldConfig c = parse_field_config(run.config, config_path);
+  if (c.space != "rgb") fail(config_path, "space '" + c.space + "' cannot be rendered as RGB by this command yet");
+  run.render.sh_degree = c.sh_degree;
+  run.render.mip = c.mip;
+  run.render.background = torch::tensor(c.background);
+  run.scene = load_scene(c.scene_root, c.scene);
+  const std::string ply = (fs::path(out) / "point_cloud.ply").string();
+  if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
+  run.field = read_ply(ply);
+  if (run.render.background.numel() != run.field.channels())
+    fail(config_path, "background has " + std::to_string(run.render.background.numel()) + " channels, the field " +
+                          std::to_string(run.field.channels()));
+  return run;
+}
+
+Camera scaled_camera(const Camera& camera, double scale, int width, int height) {
+  if (width > 0 && height > 0) return camera.resized(width, height);
+  if (scale <= 0) fail("--scale must be positive");
+  if (scale == 1.0) return camera;
+  return camera.resized(std::max(1, int(std::lround(camera.width * scale))),
+                        std::max(1, int(std::lround(camera.height * scale))));
+}
+
+}  // namespace lrf::splat

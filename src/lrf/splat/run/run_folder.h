@@ -1,0 +1,32 @@
+#pragma once
+// Reopening a trained output folder (OUT/config.json + OUT/point_cloud.ply) to render or evaluate it:
+// the scene it was trained on, at the resolution used, the stored field, and its render settings.
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "lrf/scene/scene.h"
+#include "lrf/splat/run/run_config.h"
+#include "lrf/splat/gaussians.h"
+#include "lrf/splat/render_field.h"
+
+namespace lrf::splat {
+
+struct FieldRun {
+  std::string out;
+  nlohmann::json config;
+  Scene scene;
+  Gaussians field;
+  FieldRenderOptions render;
+};
+
+// The keys of config.json that describe how to reload the scene and render the field.
+nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& options, const Scene& scene);
+
+// Throws lrf::Error naming the file when config.json or point_cloud.ply is missing or inconsistent.
+FieldRun open_field_run(const std::string& out);
+
+// A view's camera at `scale` times the training resolution, or at width x height when both are > 0.
+Camera scaled_camera(const Camera& camera, double scale, int width, int height);
+
+}  // namespace lrf::splat

@@ -1,0 +1,149 @@
+#include "lrf/splat/run/train_run.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "lrf/core/atomic_file.h"
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/progress.h"
+#include "lrf/splat/ply_io.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf::splat {
+namespace {
+
+constexpr const char* kLogHeader =
+    "step,loss,psnr,gaussians,elapsed_s,render_ms,loss_ms,backward_ms,adam_ms,densify_ms\n";
+
+// The rows of an earlier log up to `step` (a resumed run continues it).
+std::string log_rows_until(const std::string& path, int64_t step) {
+  std::ifstream in(path);
+  std::string line, rows;
+  if (!std::getline(in, line)) return "";
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    if (std::stoll(line.substr(0, line.find(','))) > step) break;
+    rows += line + "\n";
+  }
+  return rows;
+}
+
+}  // namespace
+
+std::string checkpoint_path(const std::string& out) { return (fs::path(out) / "checkpoint.pt").string(); }
+
+FolderLock prepare_output_dir(const std::string& out, bool force, bool resume) {
+  std::error_code ec;
+  if (fs::exists(out) && !fs::is_directory(out)) fail(out, "exists and is not a folder");
+  if (resume && !fs::exists(checkpoint_path(out)))
+    fail(checkpoint_path(out), "--resume: no checkpoint to resume from");
+  fs::create_directories(out, ec);
+  if (ec) fail(out, "cannot create folder: " + ec.message());
+  // Locked before anything in it is looked at or removed: a job still writing it makes this one stop here.
+  FolderLock lock(out);
+  bool non_empty = false;
+  for (const auto& e : fs::directory_iterator(out)) non_empty = non_empty || e.path().filename() != ".lock";
+  if (non_empty && !force && !resume)
+    fail(out, "output folder exists; pass --resume to continue its run or --force to overwrite it");
+  if (resume && !fs::exists(checkpoint_path(out)))
+    fail(checkpoint_path(out), "--resume: no checkpoint to resume from");
+  if (force && !resume) fs::remove(checkpoint_path(out), ec);
+  return lock;
+}
+
+RunSummary run_training(Trainer& trainer, const RunOptions& o) {
+  const std::string ckpt = checkpoint_path(o.out);
+  const std::string log_path = (fs::path(o.out) / "train_log.csv").string();
+  const std::string ply_path = (fs::path(o.out) / "point_cloud.ply").string();
+  std::string log_rows;
+  double elapsed_before = 0;
+  if (o.resume) {
+    trainer.load_checkpoint(ckpt);
+    log_rows = log_rows_until(log_path, trainer.steps_done());
+    if (!log_rows.empty()) {
+      auto last = log_rows.substr(log_rows.rfind('\n', log_rows.size() - 2) + 1);
+      // Column 5 is the elapsed time.
+      std::istringstream fields(last);
+      std::string field;
+      for (int i = 0; i < 5 && std::getline(fields, field, ','); ++i) {
+      }
+      elapsed_before = std::stod(field);
+    }
+    log_info("resuming " + o.out + " at step " + std::to_string(trainer.steps_done()));
+  }
+  const int64_t total = trainer.options().iterations;
+  Progress progress(o.task, total, 2.0, trainer.steps_done());
+  // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
+  // The log goes first: killed before the checkpoint is written, a resumed run drops the log's rows past
+  // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.
+  auto save = [&]() {
+    write_file_atomic(log_path, kLogHeader + log_rows);
+    trainer.save_checkpoint(ckpt);
+    write_ply(ply_path, trainer.export_gaussians());
+  };
+
+  RunSummary summary;
+  double loss_sum = 0;
+  int64_t loss_count = 0;
+  StepTimings time_sum;
+  double last_psnr = std::nan("");
+  try {
+    while (!trainer.done()) {
+      auto r = trainer.step();
+      loss_sum += r.loss;
+      ++loss_count;
+      time_sum.render += r.timings.render;
+      time_sum.loss += r.timings.loss;
+      time_sum.backward += r.timings.backward;
+      time_sum.optimizer += r.timings.optimizer;
+      time_sum.densify += r.timings.densify;
+      if (!std::isnan(r.psnr)) last_psnr = r.psnr;
+      summary.last_loss = r.loss;
+      if (r.densified)
+        log_info("step " + std::to_string(r.step) + ": densified " + std::to_string(r.densify.before) + " -> " +
+                 std::to_string(r.densify.after) + " Gaussians (" + std::to_string(r.densify.cloned) + " cloned, " +
+                 std::to_string(r.densify.split) + " split, " + std::to_string(r.densify.pruned) + " pruned)");
+      if (r.step % o.log_every == 0 || trainer.done()) {
+        std::ostringstream row;
+        row << r.step << "," << std::setprecision(6) << loss_sum / double(loss_count) << ","
+            << std::setprecision(4) << last_psnr << "," << r.gaussians << "," << std::setprecision(6)
+            << elapsed_before + progress.elapsed_seconds() << std::setprecision(4);
+        for (double t : {time_sum.render, time_sum.loss, time_sum.backward, time_sum.optimizer, time_sum.densify})
+          row << "," << t / double(loss_count);
+        row << "\n";
+        log_rows += row.str();
+        loss_sum = 0;
+        loss_count = 0;
+        time_sum = StepTimings();
+      }
+      progress.update(r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}});
+      if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
+    }
+    save();
+  } catch (const TrainingDiverged& e) {
+    log_error(e.what());
+    if (fs::exists(ckpt)) {
+      trainer.load_checkpoint(ckpt);
+      write_ply(ply_path, trainer.export_gaussians());
+      log_error("kept the last good checkpoint (step " + std::to_string(trainer.steps_done()) + ") and wrote " +
+                ply_path + " from it");
+    } else {
+      log_error("no checkpoint was saved before the divergence; nothing written");
+    }
+    throw;
+  }
+  write_ply(ply_path, trainer.export_gaussians());
+  progress.finish({{"loss", summary.last_loss}, {"gaussians", double(trainer.gaussians().size())}});
+  summary.steps = trainer.steps_done();
+  summary.gaussians = trainer.gaussians().size();
+  summary.seconds = elapsed_before + progress.elapsed_seconds();
+  summary.last_psnr = last_psnr;
+  return summary;
+}
+
+}  // namespace lrf::splat

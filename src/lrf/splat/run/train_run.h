@@ -1,0 +1,40 @@
+#pragma once
+// A training run on disk, shared by every kind of field (RGB now, latents in Stage II): the output
+// folder rules, periodic atomic checkpoints, the CSV log, progress, divergence handling and the final
+// point_cloud.ply.
+//
+// Folder layout: OUT/config.json (written by the caller), OUT/checkpoint.pt, OUT/train_log.csv,
+// OUT/point_cloud.ply (refreshed at every checkpoint; config.json gains a "result" when the run ends).
+#include <cstdint>
+#include <string>
+
+#include "lrf/core/folder_lock.h"
+#include "lrf/splat/train/trainer.h"
+
+namespace lrf::splat {
+
+// Refuses an existing non-empty OUT unless force or resume; creates it otherwise. With force (and no
+// resume) a stale checkpoint is removed so that the run starts afresh. Returns the folder's lock (see
+// core/folder_lock.h): hold it for as long as the job writes OUT; a second job on OUT is refused.
+[[nodiscard]] FolderLock prepare_output_dir(const std::string& out, bool force, bool resume);
+
+std::string checkpoint_path(const std::string& out);
+
+struct RunOptions {
+  std::string out;
+  bool resume = false;
+  int64_t checkpoint_every = 1000;
+  int64_t log_every = 10;  // rows of train_log.csv (mean loss over the rows' steps)
+  std::string task = "train";
+};
+
+struct RunSummary {
+  int64_t steps = 0, gaussians = 0;
+  double seconds = 0, last_loss = 0, last_psnr = 0;
+};
+
+// Trains to the end (resuming from OUT/checkpoint.pt when asked). On divergence the field of the last
+// good checkpoint is written as point_cloud.ply and TrainingDiverged is rethrown.
+RunSummary run_training(Trainer& trainer, const RunOptions& options);
+
+}  // namespace lrf::splat

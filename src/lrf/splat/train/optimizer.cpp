@@ -1,0 +1,128 @@
+#include "lrf/splat/train/optimizer.h"
+
+#include <cmath>
+
+#include <ATen/ATen.h>
+#include <ATen/Parallel.h>
+
+#include "lrf/core/error.h"
+
+namespace lrf::splat {
+namespace {
+
+struct AdamScalars {
+  float beta1, beta2, one_minus_beta1, one_minus_beta2, step_size, inv_sqrt_bc2, eps;
+};
+
+AdamScalars scalars(double lr, double b1, double b2, double eps, int64_t t) {
+  const double bc1 = 1.0 - std::pow(b1, double(t));
+  const double bc2 = 1.0 - std::pow(b2, double(t));
+  return {float(b1), float(b2), float(1 - b1), float(1 - b2), float(lr / bc1), float(1.0 / std::sqrt(bc2)),
+          float(eps)};
+}
+
+// The PyTorch Adam update on n contiguous elements.
+inline void adam_span(float* p, const float* g, float* m, float* v, int64_t n, const AdamScalars& s) {
+#pragma omp simd
+  for (int64_t i = 0; i < n; ++i) {
+    const float gi = g[i];
+    const float mi = s.beta1 * m[i] + s.one_minus_beta1 * gi;
+    const float vi = s.beta2 * v[i] + s.one_minus_beta2 * gi * gi;
+    m[i] = mi;
+    v[i] = vi;
+    p[i] -= s.step_size * mi / (std::sqrt(vi) * s.inv_sqrt_bc2 + s.eps);
+  }
+}
+
+}  // namespace
+
+GaussianAdam::GaussianAdam(const Gaussians& g, const LearningRates& lr, double extent, int64_t total_steps)
+    : lr_(lr), extent_(extent), total_(std::max<int64_t>(total_steps, 1)) {
+  auto params = g.parameters();
+  for (int i = 0; i < kGroups; ++i) {
+    m_[i] = torch::zeros_like(params[i]->detach());
+    v_[i] = torch::zeros_like(params[i]->detach());
+  }
+}
+
+double GaussianAdam::position_lr(int64_t step) const {
+  const double t = std::clamp(double(step) / double(total_), 0.0, 1.0);
+  return extent_ * std::exp(std::log(lr_.position_init) * (1 - t) + std::log(lr_.position_final) * t);
+}
+
+void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor& visible) {
+  ++steps_;
+  auto params = g.parameters();
+  const bool use_mask = sparse && visible.defined();
+  torch::Tensor mask_u8;
+  if (use_mask) mask_u8 = visible.to(torch::kUInt8).contiguous();
+  const uint8_t* mask = use_mask ? mask_u8.data_ptr<uint8_t>() : nullptr;
+  const double group_lr[kGroups] = {position_lr(steps_ - 1), lr_.scales, lr_.rotations, lr_.opacity, lr_.sh_dc};
+
+  for (int k = 0; k < kGroups; ++k) {
+    torch::Tensor& p = *params[k];
+    torch::Tensor grad = p.grad();
+    if (!grad.defined()) continue;
+    if (!grad.is_contiguous()) grad = grad.contiguous();
+    TORCH_CHECK(p.is_contiguous() && m_[k].sizes() == p.sizes(), "optimizer state out of step with parameters");
+    const int64_t n = p.size(0);
+    const int64_t row = n ? p.numel() / n : 0;
+    // For SH: band 0 (C values) at the DC rate, then the active higher bands at the rest rate.
+    int64_t seg0 = row, seg1 = 0;
+    AdamScalars s0 = scalars(group_lr[k], beta1, beta2, eps, steps_), s1 = s0;
+    if (k == 4) {
+      const int64_t c = p.size(2);
+      seg0 = c;
+      seg1 = (sh_coefficients(active_sh_degree) - 1) * c;
+      s1 = scalars(lr_.sh_rest, beta1, beta2, eps, steps_);
+    }
+    float* pp = p.data_ptr<float>();
+    const float* gp = grad.data_ptr<float>();
+    float* mp = m_[k].data_ptr<float>();
+    float* vp = v_[k].data_ptr<float>();
+    const int64_t grain = std::max<int64_t>(1, 32768 / std::max<int64_t>(row, 1));
+    at::parallel_for(0, n, grain, [&](int64_t begin, int64_t end) {
+      if (!mask && seg0 == row) {  // whole rows, one segment: one long span
+        const int64_t o = begin * row;
+        adam_span(pp + o, gp + o, mp + o, vp + o, (end - begin) * row, s0);
+        return;
+      }
+      for (int64_t r = begin; r < end; ++r) {
+        if (mask && !mask[r]) continue;
+        const int64_t o = r * row;
+        adam_span(pp + o, gp + o, mp + o, vp + o, seg0, s0);
+        if (seg1) adam_span(pp + o + seg0, gp + o + seg0, mp + o + seg0, vp + o + seg0, seg1, s1);
+      }
+    });
+  }
+}
+
+void GaussianAdam::gather_rows(const torch::Tensor& source, int64_t first_new) {
+  for (int k = 0; k < kGroups; ++k)
+    for (auto* t : {&m_[k], &v_[k]}) {
+      *t = t->index_select(0, source);
+      t->narrow(0, first_new, t->size(0) - first_new).zero_();
+    }
+}
+
+void GaussianAdam::reset_group(int group) {
+  m_[group].zero_();
+  v_[group].zero_();
+}
+
+std::vector<torch::Tensor> GaussianAdam::state() const {
+  std::vector<torch::Tensor> out(m_.begin(), m_.end());
+  out.insert(out.end(), v_.begin(), v_.end());
+  return out;
+}
+
+void GaussianAdam::set_state(const std::vector<torch::Tensor>& tensors, int64_t steps) {
+  if (tensors.size() != 2 * kGroups) fail("optimizer state: expected " + std::to_string(2 * kGroups) + " tensors");
+  for (int k = 0; k < kGroups; ++k) {
+    m_[k] = tensors[k].contiguous().clone();
+    v_[k] = tensors[kGroups + k].contiguous().clone();
+  }
+  steps_ = steps;
+}
+
+}  // namespace lrf::splat

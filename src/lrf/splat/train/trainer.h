@@ -1,0 +1,109 @@
+#pragma once
+// The 3DGS training loop for any channel count: a list of training views (camera + target tensor
+// [C, H, W]), a field to start from, and Inria's recipe (loss, Adam schedule, densification, SH degree
+// schedule), optionally with Mip-Splatting's filters. RGB training is one user (targets = images);
+// Stage II's latent fields are another (targets = normalised latents, background 0).
+//
+// Everything random is derived from (seed, step), so a run resumed from a checkpoint takes the same
+// path as one that never stopped.
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <torch/types.h>
+
+#include "lrf/core/error.h"
+#include "lrf/scene/camera.h"
+#include "lrf/splat/train/densify.h"
+#include "lrf/splat/gaussians.h"
+#include "lrf/splat/train/optimizer.h"
+#include "lrf/splat/raster/rasterize.h"
+
+namespace lrf::splat {
+
+struct TrainView {
+  std::string name;
+  Camera camera;
+  torch::Tensor target;  // [C, H, W] float32, camera.height x camera.width
+};
+
+struct TrainerOptions {
+  int64_t iterations = 30000;
+  int sh_degree = 3;  // the largest degree; training starts at 0 and adds one every schedule period
+  bool mip = false;   // Mip-Splatting 3D smoothing filter + 2D Mip filter
+  uint64_t seed = 0;
+  double lambda_ssim = 0.2;
+  torch::Tensor background;  // [C]; undefined = zeros
+  LearningRates lr;
+  DensifyOptions densify;
+  DensifySchedule schedule;  // see DensifySchedule::for_iterations
+  bool sparse_adam = false;  // skip Adam on rows without gradient (see GaussianAdam::sparse)
+  int psnr_every = 10;  // StepResult::psnr on the training view every this many steps (0 = never)
+};
+
+// Where a step's time went, in milliseconds.
+struct StepTimings {
+  double render = 0, loss = 0, backward = 0, optimizer = 0, densify = 0;
+};
+
+struct StepResult {
+  int64_t step = 0;  // 1-based number of the step just done
+  double loss = 0;
+  double psnr = std::numeric_limits<double>::quiet_NaN();  // of this step's view, when computed
+  int64_t gaussians = 0;
+  bool densified = false;
+  DensifyStats densify;
+  StepTimings timings;
+};
+
+// Thrown when the loss or a parameter stops being finite.
+class TrainingDiverged : public Error {
+ public:
+  TrainingDiverged(int64_t step, const std::string& what);
+  int64_t step() const { return step_; }
+
+ private:
+  int64_t step_;
+};
+
+class Trainer {
+ public:
+  Trainer(std::vector<TrainView> views, Gaussians init, double extent, TrainerOptions options);
+
+  StepResult step();
+  bool done() const { return step_ >= options_.iterations; }
+  int64_t steps_done() const { return step_; }
+  int active_sh_degree() const;
+  const Gaussians& gaussians() const { return g_; }
+  const TrainerOptions& options() const { return options_; }
+  const std::vector<TrainView>& views() const { return views_; }
+  double extent() const { return extent_; }
+
+  // Renders the current field (filters applied) for any camera; without autograd unless `grad`.
+  RenderOutput render(const Camera& camera, bool grad = false);
+  // The field as a viewer should see it: with the Mip 3D filter baked into scales and opacities.
+  Gaussians export_gaussians() const;
+  // Throws TrainingDiverged when a parameter is NaN or infinite.
+  void check_finite() const;
+
+  // Checkpoint: parameters, optimizer moments, densification statistics, filter, step and seed.
+  void save_checkpoint(const std::string& path) const;
+  void load_checkpoint(const std::string& path);
+
+ private:
+  int view_for_step(int64_t step) const;
+  RasterSettings settings(const Camera& camera) const;
+  void update_filter();
+
+  std::vector<TrainView> views_;
+  Gaussians g_;
+  double extent_;
+  TrainerOptions options_;
+  GaussianAdam adam_;
+  Densifier densifier_;
+  torch::Tensor filter_;  // [N] Mip 3D filter (std), defined when options_.mip
+  int64_t step_ = 0;
+};
+
+}  // namespace lrf::splat
