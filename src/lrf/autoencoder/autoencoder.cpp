@@ -52,6 +52,15 @@ void Autoencoder::set_channels_last(bool on) {
   }
 }
 
+at::Tensor Autoencoder::decode(const at::Tensor& latents) { return decode_unclamped(latents).clamp(0, 1); }
+
+at::Tensor Autoencoder::decode_global(const at::Tensor& latents) {
+  check_latents(latents);
+  return latents;
+}
+
+at::Tensor Autoencoder::decode_local(const at::Tensor& features) { return decode_unclamped(features); }
+
 at::Tensor Autoencoder::to_layout(const at::Tensor& t) const {
   return t.contiguous(channels_last_ ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous);
 }

@@ -27,7 +27,20 @@ class Autoencoder {
   // A sample of the posterior (the KL-VAE); deterministic encoders return encode().
   virtual at::Tensor encode_sample(const at::Tensor& images) { return encode(images); }
   // [B,C,h,w] -> [B,3,8h,8w] clamped to [0,1].
-  virtual at::Tensor decode(const at::Tensor& latents) = 0;
+  at::Tensor decode(const at::Tensor& latents);
+  // The same before the clamp: training through the decoder needs the gradient of saturated pixels too.
+  virtual at::Tensor decode_unclamped(const at::Tensor& latents) = 0;
+
+  // Decoding in two parts, so that a window of the image can be decoded exactly without decoding the
+  // rest (training through the decoder on crops). decode_global maps latents [B,C,h,w] to features at
+  // latent resolution that already hold every whole-image dependency of the decoder (TAEF2's group-norm
+  // branches); decode_local maps a window of those features to that window's pixels, unclamped. Pixels
+  // whose latent cell lies at least decode_local_reach() cells inside the window's edges (or on an edge
+  // of the image itself) come out exactly as from decode_unclamped of the whole latent; a reach of -1
+  // says the decoder has no such split (every pixel depends on the whole latent: decode it whole).
+  virtual at::Tensor decode_global(const at::Tensor& latents);
+  virtual at::Tensor decode_local(const at::Tensor& features);
+  virtual int decode_local_reach() const { return -1; }
 
   std::vector<at::Tensor> encoder_parameters();
   std::vector<at::Tensor> decoder_parameters();

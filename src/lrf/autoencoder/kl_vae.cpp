@@ -298,11 +298,11 @@ at::Tensor KLAutoencoder::encode_sample(const at::Tensor& images) {
   return parts[0] + torch::exp(0.5 * parts[1]) * torch::randn_like(parts[0]);
 }
 
-at::Tensor KLAutoencoder::decode(const at::Tensor& latents) {
+at::Tensor KLAutoencoder::decode_unclamped(const at::Tensor& latents) {
   check_latents(latents);
   auto& d = static_cast<DecoderHalf&>(*decoder_);
   at::Tensor x = d.decoder(d.post_quant_conv(to_layout(latents)));
-  return ((x + 1) * 0.5).clamp(0, 1).contiguous();
+  return ((x + 1) * 0.5).contiguous();
 }
 
 }  // namespace lrf

@@ -34,7 +34,8 @@ class KLAutoencoder : public Autoencoder {
   int latent_channels() const override { return config_.z_channels; }
   at::Tensor encode(const at::Tensor& images) override;
   at::Tensor encode_sample(const at::Tensor& images) override;
-  at::Tensor decode(const at::Tensor& latents) override;
+  // Group norms throughout the decoder make every pixel depend on the whole latent: no local split.
+  at::Tensor decode_unclamped(const at::Tensor& latents) override;
   // Posterior moments [B, 2C, h, w]: mean then log-variance (clamped to [-30, 20] as ldm does).
   at::Tensor encode_moments(const at::Tensor& images);
   const KLConfig& config() const { return config_; }

@@ -1,5 +1,6 @@
 #include "lrf/autoencoder/tiny_ae.h"
 
+#include <cmath>
 #include <regex>
 
 #include <torch/torch.h>
@@ -46,6 +47,13 @@ TORCH_MODULE(TinyBlock);
 
 nn::Upsample upsample2() {
   return nn::Upsample(nn::UpsampleOptions().scale_factor(std::vector<double>{2.0, 2.0}).mode(torch::kNearest));
+}
+
+// Runs layers [from, to) of a Sequential.
+at::Tensor run_layers(nn::SequentialImpl& s, size_t from, size_t to, at::Tensor x) {
+  auto it = s.begin() + static_cast<std::ptrdiff_t>(from);
+  for (size_t i = from; i < to; ++i, ++it) x = it->forward(x);
+  return x;
 }
 
 const std::regex kIndexKey(R"(^(\d+)\.(.*)$)");
@@ -131,6 +139,22 @@ void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>&
   }
   decoder_->push_back(block(dp, 18));                                       // 18
   decoder_->push_back(conv3(64, 3));                                        // 19
+
+  // The local part starts after the last block with a pool branch; its reach in latent cells is the sum,
+  // over its 3x3 convolutions, of one pixel at that convolution's resolution (1/2, 1/4 or 1/8 of a cell
+  // after one, two or three upsamplings). TAEF2: 8.125 cells -> 9.
+  decoder_split_ = dp.empty() ? 0 : static_cast<size_t>(*dp.rbegin()) + 1;
+  double reach = 0, scale = 1;
+  for (size_t i = decoder_split_; i < decoder_->size(); ++i) {
+    const auto& m = decoder_->ptr(i);
+    if (m->as<nn::Upsample>()) scale *= 2;
+    if (m->as<nn::Conv2d>()) reach += 1 / scale;
+    if (const auto* b = m->as<TinyBlock>()) {
+      if (b->pool) fail("tiny autoencoder: a group-norm block after the decoder's split");
+      reach += 3 / scale;
+    }
+  }
+  local_reach_ = static_cast<int>(std::ceil(reach - 1e-9));
 }
 
 at::Tensor TinyAutoencoder::encode(const at::Tensor& images) {
@@ -138,9 +162,21 @@ at::Tensor TinyAutoencoder::encode(const at::Tensor& images) {
   return encoder_->forward(to_layout(images)).contiguous();
 }
 
-at::Tensor TinyAutoencoder::decode(const at::Tensor& latents) {
+at::Tensor TinyAutoencoder::decode_unclamped(const at::Tensor& latents) {
   check_latents(latents);
-  return decoder_->forward(to_layout(latents)).clamp(0, 1).contiguous();
+  return decoder_->forward(to_layout(latents)).contiguous();
+}
+
+at::Tensor TinyAutoencoder::decode_global(const at::Tensor& latents) {
+  check_latents(latents);
+  return run_layers(*decoder_, 0, decoder_split_, to_layout(latents));
+}
+
+at::Tensor TinyAutoencoder::decode_local(const at::Tensor& features) {
+  if (features.dim() != 4 || features.size(1) != (decoder_split_ == 0 ? latent_channels_ : 64)) {
+    fail("tiny autoencoder: decode_local takes decode_global's features, got " + std::string(c10::str(features.sizes())));
+  }
+  return run_layers(*decoder_, decoder_split_, decoder_->size(), to_layout(features)).contiguous();
 }
 
 StateDict TinyAutoencoder::encoder_keys(const StateDict& file) const {

@@ -27,7 +27,12 @@ class TinyAutoencoder : public Autoencoder {
   std::string kind() const override { return "tiny"; }
   int latent_channels() const override { return latent_channels_; }
   at::Tensor encode(const at::Tensor& images) override;
-  at::Tensor decode(const at::Tensor& latents) override;
+  at::Tensor decode_unclamped(const at::Tensor& latents) override;
+  // The split falls after the decoder's last block with a group-norm branch (none in TAESD: at the
+  // start); the rest is 3x3 convolutions and nearest upsampling, whose reach is summed in latent cells.
+  at::Tensor decode_global(const at::Tensor& latents) override;
+  at::Tensor decode_local(const at::Tensor& features) override;
+  int decode_local_reach() const override { return local_reach_; }
 
  protected:
   torch::nn::Module& encoder_module() override { return *encoder_; }
@@ -38,6 +43,8 @@ class TinyAutoencoder : public Autoencoder {
  private:
   void build(int latent_channels, const std::set<int>& encoder_pool, const std::set<int>& decoder_pool);
   int latent_channels_ = 4;
+  size_t decoder_split_ = 0;  // decoder layers [0, split) are global, [split, end) local
+  int local_reach_ = 0;
   torch::nn::Sequential encoder_{nullptr};
   torch::nn::Sequential decoder_{nullptr};
 };
