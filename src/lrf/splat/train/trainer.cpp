@@ -44,6 +44,7 @@ Trainer::Trainer(std::vector<TrainView> views, Gaussians init, double extent, Tr
   g_.check("initial Gaussians");
   const int64_t c = g_.channels();
   for (const auto& v : views_) {
+    if (options_.objective) break;  // the objective gives the targets their meaning
     if (!v.target.defined() || v.target.dim() != 3 || v.target.size(0) != c ||
         v.target.size(1) != v.camera.height || v.target.size(2) != v.camera.width)
       fail(v.name, "training target must be [" + std::to_string(c) + ", " + std::to_string(v.camera.height) +
@@ -100,18 +101,26 @@ RenderOutput Trainer::render(const Camera& camera, bool grad) {
 StepResult Trainer::step() {
   StepResult r;
   const int64_t step = step_ + 1;  // 1-based, as the schedule is written
-  const auto& view = views_[static_cast<size_t>(view_for_step(step_))];
+  const int view_index = view_for_step(step_);
+  const auto& view = views_[static_cast<size_t>(view_index)];
 
   auto t0 = Clock::now();
   RenderOutput out = render(view.camera, /*grad=*/true);
   r.timings.render = ms_since(t0);
 
   t0 = Clock::now();
-  auto loss = photometric_loss(out.image, view.target, options_.lambda_ssim);
+  torch::Tensor loss;
+  if (options_.objective) {
+    ObjectiveValue v = options_.objective(out.image, view_index, step);
+    loss = v.loss;
+    r.psnr = v.psnr;
+  } else {
+    loss = photometric_loss(out.image, view.target, options_.lambda_ssim);
+    if (options_.psnr_every > 0 && step % options_.psnr_every == 0) r.psnr = psnr(out.image, view.target);
+  }
   r.loss = loss.item<double>();
   r.timings.loss = ms_since(t0);
   if (!std::isfinite(r.loss)) throw TrainingDiverged(step, "loss is " + std::to_string(r.loss));
-  if (options_.psnr_every > 0 && step % options_.psnr_every == 0) r.psnr = psnr(out.image, view.target);
 
   t0 = Clock::now();
   loss.backward();

@@ -7,6 +7,7 @@
 // Everything random is derived from (seed, step), so a run resumed from a checkpoint takes the same
 // path as one that never stopped.
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <string>
 #include <vector>
@@ -28,6 +29,16 @@ struct TrainView {
   torch::Tensor target;  // [C, H, W] float32, camera.height x camera.width
 };
 
+// A training objective other than the photometric loss against each view's target: given the render
+// of view `view` ([C, H, W], under autograd) at the 1-based `step`, the scalar to minimise and, when
+// cheap to know, a PSNR for the log. With one, the views' targets may have any shape (the objective
+// decides what they mean); decoder-aware refinement is its user.
+struct ObjectiveValue {
+  torch::Tensor loss;
+  double psnr = std::numeric_limits<double>::quiet_NaN();
+};
+using Objective = std::function<ObjectiveValue(const torch::Tensor& rendered, int view, int64_t step)>;
+
 struct TrainerOptions {
   int64_t iterations = 30000;
   int sh_degree = 3;  // the largest degree; training starts at 0 and adds one every schedule period
@@ -40,6 +51,7 @@ struct TrainerOptions {
   DensifySchedule schedule;  // see DensifySchedule::for_iterations
   bool sparse_adam = false;  // skip Adam on rows without gradient (see GaussianAdam::sparse)
   int psnr_every = 10;  // StepResult::psnr on the training view every this many steps (0 = never)
+  Objective objective;  // empty: photometric_loss(render, view.target, lambda_ssim)
 };
 
 // Where a step's time went, in milliseconds.
