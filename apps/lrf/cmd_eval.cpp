@@ -84,7 +84,8 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
   auto o = std::make_shared<EvalOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train")->required();
   cmd->add_option("--scale", o->scale, "Evaluate at this multiple of the training resolution")->capture_default_str();
-  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's)");
+  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's; default: the decoder "
+                  "a refined field was fitted through, else the autoencoder's)");
   cmd->add_option("--lpips-weights", o->lpips_weights,
                   "Latent fields: LPIPS (VGG, lpips v0.1 layout: net.slice*/lin* keys) weights file; without it "
                   "metrics.json has \"lpips\": null and the reason");

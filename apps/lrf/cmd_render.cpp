@@ -34,7 +34,7 @@ int run_render_latent(const RenderOptions& o, const std::vector<int>& indices, c
   using namespace lrf;
   if (o.scale != 1.0 || o.width > 0) fail("--scale/--width/--height apply to RGB fields; latent fields render at "
                                           "their latent resolution and decode at 8x");
-  auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder);
+  auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder.empty() ? run.decoder : o.decoder);
   Progress progress("render", static_cast<long>(indices.size()));
   long done = 0;
   for (int i : indices) {
@@ -98,7 +98,8 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training")->capture_default_str();
   cmd->add_option("--width", o->width, "Render width in pixels (with --height)")->excludes(scale);
   cmd->add_option("--height", o->height, "Render height in pixels (with --width)")->excludes(scale);
-  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's)");
+  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's; default: the decoder "
+                  "a refined field was fitted through, else the autoencoder's)");
   lrf::cli::on_run(cmd, [o] { return run_render(*o); });
 });
 

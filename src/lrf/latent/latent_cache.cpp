@@ -55,6 +55,8 @@ std::string autoencoder_identity(const std::string& name_or_path, const std::str
   return id;
 }
 
+std::string weights_file_identity(const std::string& path) { return file_stamp(path); }
+
 LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>& indices, Autoencoder& ae,
                                       const std::string& ae_identity, const std::string& cache_dir) {
   std::ostringstream key;

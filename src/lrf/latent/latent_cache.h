@@ -20,6 +20,9 @@ std::string default_cache_dir();
 // A stable description of the files an autoencoder was loaded from (for cache keys and run records).
 std::string autoencoder_identity(const std::string& name_or_path, const std::string& encoder_override);
 
+// A stable description of one weights file (path, size, modification time), e.g. a refined field's decoder.
+std::string weights_file_identity(const std::string& path);
+
 struct LatentCacheResult {
   std::vector<torch::Tensor> latents;  // raw [C, H/8, W/8] float32, one per requested view
   std::string path;                    // cache file used

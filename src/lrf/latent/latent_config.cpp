@@ -12,6 +12,8 @@ LatentConfig parse_latent_config(const nlohmann::json& c, const std::string& pat
     l.autoencoder = c.at("autoencoder").get<std::string>();
     l.encoder = c.value("encoder", std::string());
     l.identity = c.at("autoencoder_identity").get<std::string>();
+    l.decoder = c.value("decoder", std::string());
+    l.decoder_identity = c.value("decoder_identity", std::string());
     l.range = LatentRange::from_json(c.at("latent_range"), path);
     if (c.contains("resolution")) {
       const auto& r = c["resolution"];

@@ -14,6 +14,9 @@ namespace lrf {
 struct LatentConfig {
   splat::FieldConfig field;  // space "latent"; background has one value per latent channel
   std::string autoencoder, encoder, identity;
+  // A field refined through a decoder (lrf refine) is decoded by that decoder unless told otherwise:
+  // its weights file ("" = the autoencoder's own decoder) and that file's identity when it was used.
+  std::string decoder, decoder_identity;
   LatentRange range;
   std::vector<int> resolution;  // training resolution (width, height) when recorded, else empty
 };

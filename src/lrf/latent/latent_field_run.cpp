@@ -48,6 +48,11 @@ LatentRun open_latent_run(const std::string& out) {
     fail(config_path, "the autoencoder's files changed since training (was " + c.identity + ", now " + now +
                           "): retrain, or restore the weights");
   }
+  run.decoder = c.decoder;
+  if (!run.decoder.empty() && weights_file_identity(run.decoder) != c.decoder_identity) {
+    fail(config_path, "the decoder the field was refined through changed since (" + run.decoder + "): refine again, "
+                      "or restore the weights");
+  }
   run.scene = load_scene(c.field.scene_root, c.field.scene);
   if (run.scene.views.empty()) fail(config_path, "the scene has no views");
   const auto& res = c.resolution;
@@ -68,7 +73,8 @@ torch::Tensor render_latent(const LatentRun& run, int view) {
 nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptions& o) {
   LatentRun run = open_latent_run(out);
   if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
-  auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder);
+  const std::string decoder = o.decoder.empty() ? run.decoder : o.decoder;
+  auto ae = load_autoencoder(run.autoencoder, run.encoder, decoder);
   std::optional<Lpips> lpips;
   std::string lpips_reason = "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
   if (!o.lpips_weights.empty()) lpips = Lpips::from_state_dict(tensor_map(load_state_dict(o.lpips_weights)), o.lpips_weights);
@@ -124,7 +130,7 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   metrics["gaussians"] = run.field.size();
   metrics["render_fps"] = n / std::max(render_seconds, 1e-9);
   metrics["decode_fps"] = n / std::max(decode_seconds, 1e-9);
-  metrics["decoder"] = o.decoder.empty() ? "stock" : o.decoder;
+  metrics["decoder"] = decoder.empty() ? "stock" : decoder;
   if (run.config.contains("result") && run.config["result"].is_object()) {
     const auto& result = run.config["result"];
     auto number = [&](const char* key) {

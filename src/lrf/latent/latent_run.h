@@ -45,6 +45,7 @@ struct LatentRun {
   splat::FieldRenderOptions render;
   LatentRange range;
   std::string autoencoder, encoder;
+  std::string decoder;  // the decoder a refined field was fitted through ("" = the autoencoder's)
 };
 
 // Opens OUT; throws lrf::Error naming the file when it is not a finished latent run, or when the scene
@@ -56,7 +57,7 @@ bool is_latent_run(const std::string& out);
 torch::Tensor render_latent(const LatentRun& run, int view);
 
 struct LatentEvalOptions {
-  std::string decoder;        // decoder override (Stage III) ("" = the run's autoencoder)
+  std::string decoder;        // decoder override (Stage III) ("" = the run's own: see LatentRun::decoder)
   std::string lpips_weights;  // "" = LPIPS not computed ("lpips": null with the reason)
   bool write_images = true;   // <output_dir>/eval/<name>.png decoded test views
   std::string output_dir;     // where metrics.json and eval/ go ("" = the run folder OUT)
