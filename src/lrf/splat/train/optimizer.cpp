@@ -50,6 +50,12 @@ double GaussianAdam::position_lr(int64_t step) const {
   return extent_ * std::exp(std::log(lr_.position_init) * (1 - t) + std::log(lr_.position_final) * t);
 }
 
+double GaussianAdam::others_factor(int64_t step) const {
+  if (lr_.others_final_factor == 1.0) return 1.0;
+  const double t = std::clamp(double(step) / double(total_), 0.0, 1.0);
+  return std::exp(std::log(lr_.others_final_factor) * t);
+}
+
 void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor& visible) {
   ++steps_;
   auto params = g.parameters();
@@ -57,7 +63,9 @@ void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor&
   torch::Tensor mask_u8;
   if (use_mask) mask_u8 = visible.to(torch::kUInt8).contiguous();
   const uint8_t* mask = use_mask ? mask_u8.data_ptr<uint8_t>() : nullptr;
-  const double group_lr[kGroups] = {position_lr(steps_ - 1), lr_.scales, lr_.rotations, lr_.opacity, lr_.sh_dc};
+  const double f = others_factor(steps_ - 1);
+  const double group_lr[kGroups] = {position_lr(steps_ - 1), f * lr_.scales, f * lr_.rotations, f * lr_.opacity,
+                                    f * lr_.sh_dc};
 
   for (int k = 0; k < kGroups; ++k) {
     torch::Tensor& p = *params[k];
@@ -74,7 +82,7 @@ void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor&
       const int64_t c = p.size(2);
       seg0 = c;
       seg1 = (sh_coefficients(active_sh_degree) - 1) * c;
-      s1 = scalars(lr_.sh_rest, beta1, beta2, eps, steps_);
+      s1 = scalars(f * lr_.sh_rest, beta1, beta2, eps, steps_);
     }
     float* pp = p.data_ptr<float>();
     const float* gp = grad.data_ptr<float>();

@@ -27,6 +27,9 @@ struct LearningRates {
   double opacity = 5e-2;
   double sh_dc = 2.5e-3;
   double sh_rest = 2.5e-3 / 20.0;
+  // The rates of scales, rotations, opacity and SH are multiplied by a factor going log-linearly from 1 at
+  // the first step to this at the last (1: constant, as in Inria's 3DGS; refinement decays them).
+  double others_final_factor = 1.0;
 };
 
 class GaussianAdam {
@@ -38,6 +41,8 @@ class GaussianAdam {
 
   // The position learning rate at `step` (0-based): log-linear from init to final over total_steps.
   double position_lr(int64_t step) const;
+  // The factor of the other groups' rates at `step` (see LearningRates::others_final_factor).
+  double others_factor(int64_t step) const;
   // One update of every parameter that has a gradient. active_sh_degree limits the SH bands moved;
   // `rows` ([N] bool or undefined) restricts the update to those rows when `sparse` is set.
   void step(Gaussians& g, int active_sh_degree, const torch::Tensor& rows = {});
