@@ -83,6 +83,7 @@ nlohmann::json to_json(const TrainOptions& o) {
 TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
   const std::string path = (std::filesystem::path(given.out) / "config.json").string();
   auto stored = lrf::read_json_file(path);
+  if (stored.contains("refine")) lrf::fail(path, "this folder holds a refined field: continue it with `lrf refine --resume`");
   TrainOptions o = given;
   try {
     const auto& j = stored.at("options");

@@ -1,0 +1,49 @@
+// lrf refine: decoder-aware refinement of a fitted latent field against the training images.
+#include <cstdio>
+#include <memory>
+
+#include "command.h"
+#include "lrf/refine/refine.h"
+
+namespace {
+
+lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
+  auto* cmd = root.add_subcommand(
+      "refine",
+      "Refine a fitted latent field through the (frozen) decoder: keep optimising its Gaussians so that their "
+      "rendered latents decode into the scene's training images at full resolution (3DGS's 0.8 L1 + 0.2 D-SSIM "
+      "image loss). Writes a new latent run to OUT that `lrf eval` / `render` decode with the same decoder; "
+      "checkpoints, progress, --resume");
+  auto o = std::make_shared<lrf::RefineOptions>();
+  cmd->add_option("run", o->run, "A finished latent field (`lrf train --space latent` folder)")->required();
+  cmd->add_option("-o,--out", o->out, "Output folder of the refined field")->required();
+  cmd->add_option("--decoder", o->decoder,
+                  "Decoder weights to refine through, e.g. Stage III's (default: the run's own decoder)");
+  cmd->add_option("--steps", o->steps, "Optimisation steps (one training view each)")->capture_default_str();
+  cmd->add_option("--crop", o->crop,
+                  "Side in pixels (multiple of 8) of a random square of the view supervised per step, decoded "
+                  "exactly with the decoder's context around it; 0 = the whole view")
+      ->capture_default_str();
+  cmd->add_option("--lr-scale", o->lr_scale,
+                  "Multiplies Stage II's learning rates of features, opacities, scales and rotations")
+      ->capture_default_str();
+  cmd->add_option("--position-lr", o->position_lr, "Learning rate of the means, times the scene extent")
+      ->capture_default_str();
+  cmd->add_option("--lr-final", o->lr_final,
+                  "Every learning rate decays log-linearly to this fraction of itself by the last step (1 = constant)")
+      ->capture_default_str();
+  cmd->add_option("--lambda-ssim", o->lambda_ssim, "Weight of the D-SSIM term of the image loss")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed of the view order and window positions")->capture_default_str();
+  cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")->capture_default_str();
+  cmd->add_flag("--resume", o->resume, "Continue OUT from its last checkpoint (same options; --steps may grow when --lr-final is 1)");
+  cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
+  lrf::cli::on_run(cmd, [o] {
+    lrf::RefineResult r = lrf::refine_latent_field(*o);
+    std::printf("refine: %lld steps, %lld Gaussians, last loss %.5f, last training-view PSNR %.2f dB, %.1f s\n",
+                static_cast<long long>(r.steps), static_cast<long long>(r.gaussians), r.last_loss, r.last_psnr,
+                r.seconds);
+    return 0;
+  });
+});
+
+}  // namespace

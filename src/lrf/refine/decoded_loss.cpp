@@ -1,0 +1,53 @@
+#include "lrf/refine/decoded_loss.h"
+
+#include <algorithm>
+
+#include <ATen/ATen.h>
+
+#include "lrf/core/error.h"
+#include "lrf/splat/train/loss.h"
+
+namespace lrf {
+
+DecodeWindow plan_window(int64_t h, int64_t w, int64_t side, int reach, std::mt19937_64& rng) {
+  if (h < 1 || w < 1) fail("plan_window: empty latent");
+  DecodeWindow win;
+  win.h = side > 0 ? std::min(side, h) : h;
+  win.w = side > 0 ? std::min(side, w) : w;
+  win.y = std::uniform_int_distribution<int64_t>(0, h - win.h)(rng);
+  win.x = std::uniform_int_distribution<int64_t>(0, w - win.w)(rng);
+  if (reach < 0) {
+    win.y0 = 0, win.x0 = 0, win.y1 = h, win.x1 = w;
+  } else {
+    win.y0 = std::max<int64_t>(0, win.y - reach);
+    win.x0 = std::max<int64_t>(0, win.x - reach);
+    win.y1 = std::min(h, win.y + win.h + reach);
+    win.x1 = std::min(w, win.x + win.w + reach);
+  }
+  return win;
+}
+
+DecodedLoss decoded_loss(Autoencoder& ae, const LatentRange& range, const at::Tensor& normalised,
+                         const at::Tensor& image, const DecodeWindow& win, double lambda_ssim) {
+  if (normalised.dim() != 3 || image.dim() != 3 || image.size(0) != 3 || image.size(1) != 8 * normalised.size(1) ||
+      image.size(2) != 8 * normalised.size(2)) {
+    fail("decoded_loss: latent " + std::string(c10::str(normalised.sizes())) + " and image " +
+         std::string(c10::str(image.sizes())) + " do not match (the image must be 8x the latent)");
+  }
+  if (win.y < win.y0 || win.x < win.x0 || win.y + win.h > win.y1 || win.x + win.w > win.x1 || win.y0 < 0 ||
+      win.x0 < 0 || win.y1 > normalised.size(1) || win.x1 > normalised.size(2) || win.h < 1 || win.w < 1) {
+    fail("decoded_loss: the window does not lie inside the latent");
+  }
+  const at::Tensor features = ae.decode_global(range.denormalize(normalised).unsqueeze(0));
+  const at::Tensor decoded_window =
+      ae.decode_local(features.narrow(2, win.y0, win.y1 - win.y0).narrow(3, win.x0, win.x1 - win.x0))[0];
+  DecodedLoss out;
+  out.decoded = decoded_window.narrow(1, 8 * (win.y - win.y0), 8 * win.h)
+                    .narrow(2, 8 * (win.x - win.x0), 8 * win.w)
+                    .contiguous();
+  out.target = image.narrow(1, 8 * win.y, 8 * win.h).narrow(2, 8 * win.x, 8 * win.w).contiguous();
+  out.loss = splat::photometric_loss(out.decoded, out.target, lambda_ssim);
+  return out;
+}
+
+}  // namespace lrf

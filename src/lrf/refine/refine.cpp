@@ -1,0 +1,167 @@
+#include "lrf/refine/refine.h"
+
+#include <filesystem>
+
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/progress.h"
+#include "lrf/core/resources.h"
+#include "lrf/core/run_info.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_run.h"
+#include "lrf/refine/decoded_loss.h"
+#include "lrf/splat/run/train_run.h"
+#include "lrf/splat/train/loss.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+namespace {
+
+std::string canonical(const std::string& p) {
+  std::error_code ec;
+  fs::path c = fs::weakly_canonical(p, ec);
+  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
+}
+
+void check_options(const RefineOptions& o) {
+  if (o.run.empty() || o.out.empty()) fail("refine: give the latent run to refine and an output folder (-o)");
+  if (canonical(o.run) == canonical(o.out)) fail(o.out, "refine writes a new run: choose another output folder");
+  if (o.steps < 1) fail("refine: --steps must be at least 1");
+  if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
+  if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
+    fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
+  if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail("refine: --lambda-ssim must be in [0, 1]");
+}
+
+// Seeds of the window stream; the trainer's own streams (view order) use other ones.
+uint64_t window_seed(uint64_t seed, int64_t step) {
+  uint64_t x = seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) * 0xD1B54A32D192ED03ull + 0x5bd1e995;
+  x ^= x >> 31;
+  return x * 0xBF58476D1CE4E5B9ull;
+}
+
+}  // namespace
+
+nlohmann::json refine_options_json(const RefineOptions& o) {
+  return {{"run", o.run},         {"out", o.out},           {"decoder", o.decoder},
+          {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
+          {"position_lr", o.position_lr}, {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim}, {"seed", o.seed},
+          {"checkpoint_every", o.checkpoint_every}, {"resume", o.resume}, {"force", o.force}};
+}
+
+nlohmann::json refine_resume_key(const RefineOptions& o) {
+  nlohmann::json j = refine_options_json(o);
+  // A decaying schedule depends on the run's length: then --steps may not change on resume.
+  for (const char* k : {"checkpoint_every", "resume", "force", "out"}) j.erase(k);
+  if (o.lr_final == 1) j.erase("steps");
+  j["run"] = canonical(o.run);
+  return j;
+}
+
+RefineResult refine_latent_field(const RefineOptions& o) {
+  using namespace lrf::splat;
+  check_options(o);
+  LatentRun src = open_latent_run(o.run);
+  if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
+  const std::string config_path = (fs::path(o.out) / "config.json").string();
+  if (o.resume) {
+    if (!fs::exists(config_path)) fail(config_path, "--resume: not found");
+    const nlohmann::json recorded = read_json_file(config_path);
+    if (!recorded.contains("refine") || recorded["refine"].value("resume_key", nlohmann::json()) != refine_resume_key(o)) {
+      fail(config_path, "--resume: this run was refined with other options (resume with the same run, decoder, "
+                        "crop, learning rates, SSIM weight and seed)");
+    }
+  }
+  const auto lock = prepare_output_dir(o.out, o.force, o.resume);
+
+  const std::string decoder = o.decoder.empty() ? src.decoder : o.decoder;
+  auto ae = load_autoencoder(src.autoencoder, src.encoder, decoder);
+  ae->set_encoder_trainable(false);
+  ae->set_decoder_trainable(false);
+  const int reach = ae->decode_local_reach();
+
+  // Training views: latent cameras, with the full-resolution images as what the objective compares with.
+  std::vector<TrainView> views;
+  std::vector<torch::Tensor> images;  // shared with the views' targets (which the trainer takes over)
+  for (int i : src.scene.train_indices) {
+    const View& v = src.scene.views[static_cast<size_t>(i)];
+    images.push_back(image_to_batch(src.scene.load_image(i))[0].contiguous());
+    views.push_back({v.name, latent_camera(v.camera), images.back()});
+  }
+  const auto& c0 = views.front().camera;
+  log_info("refining " + o.run + " (" + std::to_string(src.field.size()) + " Gaussians) through " +
+           (decoder.empty() ? ae->description() + "'s decoder" : decoder) + " on " + std::to_string(views.size()) +
+           " training views at " + std::to_string(8 * c0.width) + "x" + std::to_string(8 * c0.height) +
+           (o.crop > 0 ? ", windows of " + std::to_string(o.crop) + " px" : ", whole views") +
+           (reach >= 0 ? " (decoder context " + std::to_string(reach) + " latent cells)" : " (decoded whole)"));
+
+  TrainerOptions to;
+  to.iterations = o.steps;
+  to.sh_degree = src.render.sh_degree;
+  to.seed = o.seed;
+  to.background = src.render.background;
+  // The field's size and SH degree stay as Stage II left them: no densification, no opacity reset.
+  to.schedule.from = 0;
+  to.schedule.until = 0;
+  to.schedule.sh_degree_every = 1;
+  LearningRates lr;
+  lr.position_init = o.position_lr;
+  lr.position_final = o.position_lr * o.lr_final;
+  lr.others_final_factor = o.lr_final;
+  lr.scales *= o.lr_scale;
+  lr.rotations *= o.lr_scale;
+  lr.opacity *= o.lr_scale;
+  lr.sh_dc *= o.lr_scale;
+  lr.sh_rest *= o.lr_scale;
+  to.lr = lr;
+  to.objective = [&](const torch::Tensor& rendered, int view, int64_t step) {
+    const torch::Tensor& image = images[static_cast<size_t>(view)];
+    std::mt19937_64 rng(window_seed(o.seed, step));
+    const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
+    DecodedLoss d = decoded_loss(*ae, src.range, rendered, image, win, o.lambda_ssim);
+    return ObjectiveValue{d.loss, psnr(d.decoded, d.target)};
+  };
+  const double extent = src.config.value("extent", src.scene.camera_extent());
+
+  nlohmann::json config = src.config;
+  config.erase("result");
+  config["decoder"] = decoder;
+  config["decoder_identity"] = decoder.empty() ? std::string() : weights_file_identity(decoder);
+  config["refine"] = run_record(refine_options_json(o));
+  config["refine"]["refined_from"] = canonical(o.run);
+  config["refine"]["resume_key"] = refine_resume_key(o);
+  config["refine"]["decoder_local_reach"] = reach;
+  write_json_file(config_path, config);
+
+  Trainer trainer(std::move(views), src.field, extent, to);
+  RunOptions ro;
+  ro.out = o.out;
+  ro.resume = o.resume;
+  ro.checkpoint_every = o.checkpoint_every;
+  ro.log_every = 10;
+  ro.task = "refine";
+  auto summary = run_training(trainer, ro);
+
+  const nlohmann::json source_result = src.config.value("result", nlohmann::json::object());
+  const double stage2_seconds = source_result.value("seconds", 0.0);
+  config["result"] = {{"steps", summary.steps},
+                      {"gaussians", summary.gaussians},
+                      {"refine_seconds", summary.seconds},
+                      {"stage2_seconds", stage2_seconds},
+                      {"seconds", stage2_seconds + summary.seconds},
+                      {"encode_seconds", source_result.value("encode_seconds", 0.0)},
+                      {"final_loss", summary.last_loss},
+                      {"final_psnr", summary.last_psnr},
+                      {"peak_memory_mb", std::max(peak_memory_mb(), source_result.value("peak_memory_mb", 0.0))}};
+  write_json_file(config_path, config);
+  log_info("wrote " + o.out + "/point_cloud.ply: refined " + std::to_string(summary.steps) + " steps in " +
+           Progress::format_duration(summary.seconds));
+  return {summary.steps, summary.gaussians, summary.seconds, summary.last_loss, summary.last_psnr};
+}
+
+}  // namespace lrf

@@ -1,0 +1,51 @@
+#pragma once
+// Decoder-aware refinement of a fitted latent field (the RGB-alignment stage of latent NeRF work such as
+// IG-AE and Latent-NeRF): Stage II fits the field to the encoded views, in latent space, where an error
+// the decoder amplifies costs no more than one it ignores. Refinement keeps optimising the same Gaussians
+// (means, shapes, opacities, latent features) through the frozen decoder against the scene's *training*
+// images at full resolution, with 3DGS's image loss. The field stays a latent field: it renders latents
+// at latent resolution, and decoding them is still the only way to an image.
+//
+// OUT is a latent run like any other (config.json, point_cloud.ply, checkpoint.pt, train_log.csv): it
+// records the run it started from and the decoder it was refined through, which `lrf eval` / `render`
+// then decode with unless told otherwise. Randomness (view order, windows) comes from (seed, step), so a
+// resumed run ends where an uninterrupted one does.
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace lrf {
+
+struct RefineOptions {
+  std::string run;      // a finished latent run (lrf train --space latent)
+  std::string out;      // the refined run
+  std::string decoder;  // decoder to refine through ("" = the run's own: its autoencoder's, or the one it
+                        //   was refined through)
+  int64_t steps = 2000;
+  int crop = 0;          // side of the supervised square in image pixels (multiple of 8); 0 = the whole view
+  double lr_scale = 1;   // multiplies Stage II's (Inria's) rates of features, opacities, scales, rotations
+  double position_lr = 1.6e-6;  // of the means, x the scene extent (Stage II's final rate)
+  double lr_final = 1;          // every rate decays log-linearly to this fraction of itself by the last step
+  double lambda_ssim = 0.2;
+  uint64_t seed = 0;
+  int64_t checkpoint_every = 500;
+  bool resume = false, force = false;
+};
+
+struct RefineResult {
+  int64_t steps = 0, gaussians = 0;
+  double seconds = 0, last_loss = 0, last_psnr = 0;
+};
+
+RefineResult refine_latent_field(const RefineOptions& options);
+
+// The options as recorded in OUT/config.json under "refine"."options".
+nlohmann::json refine_options_json(const RefineOptions& options);
+// What decides a refined field (recorded as "refine"."resume_key"): the options without the checkpoint
+// interval and the output (and without the length when the rates are constant, so that a resumed run may
+// go on longer), with the source run's canonical path. A finished OUT whose key and length match is the
+// same field.
+nlohmann::json refine_resume_key(const RefineOptions& options);
+
+}  // namespace lrf

@@ -1,0 +1,222 @@
+// Decoder-aware refinement: the split decoder decodes a window exactly as the whole latent does, the
+// decoded loss sees the right pixels, and refining a latent field through the real TAEF2 decoder lowers
+// the image loss on views it never saw; resume and bad input.
+#include <cstdio>
+#include <filesystem>
+#include <random>
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/autoencoder.h"
+#include "lrf/autoencoder/image_tensor.h"
+#include "lrf/autoencoder/kl_vae.h"
+#include "lrf/autoencoder/tiny_ae.h"
+#include "lrf/core/run_info.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_run.h"
+#include "lrf/refine/decoded_loss.h"
+#include "lrf/refine/refine.h"
+#include "lrf/splat/ply_io.h"
+#include "lrf/splat/render_field.h"
+#include "lrf/splat/train/loss.h"
+#include "test_helpers.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string taef2() { return lrf::test::shared_dir() + "/models/taef2"; }
+
+// Decodes the window [y0, y1) x [x0, x1) of latent z with `margin` cells of context and returns the
+// pixels of the window, next to the same pixels of the whole decode.
+std::pair<at::Tensor, at::Tensor> window_and_whole(lrf::Autoencoder& ae, const at::Tensor& z, int64_t y, int64_t x,
+                                                   int64_t n, int margin) {
+  torch::NoGradGuard no_grad;
+  const at::Tensor whole = ae.decode_unclamped(z);
+  const at::Tensor f = ae.decode_global(z);
+  const int64_t y0 = std::max<int64_t>(0, y - margin), x0 = std::max<int64_t>(0, x - margin);
+  const int64_t y1 = std::min(z.size(2), y + n + margin), x1 = std::min(z.size(3), x + n + margin);
+  const at::Tensor part = ae.decode_local(f.narrow(2, y0, y1 - y0).narrow(3, x0, x1 - x0));
+  return {part.narrow(2, 8 * (y - y0), 8 * n).narrow(3, 8 * (x - x0), 8 * n),
+          whole.narrow(2, 8 * y, 8 * n).narrow(3, 8 * x, 8 * n)};
+}
+
+// TAEF2's decoder: group norms in its first three blocks, then 3x3 convolutions whose reach is
+// 4.5 + 2.25 + ... = 8.125 latent cells (see tiny_ae.cpp). With that context a window decodes to exactly
+// the whole decode's pixels (up to float rounding: oneDNN may pick another convolution algorithm for
+// another size, ~1e-6); with none, the window's edge is off by far more than a grey level.
+TEST(DecoderSplit, Taef2WindowWithReachEqualsWholeDecode) {
+  auto ae = lrf::load_autoencoder(taef2());
+  EXPECT_EQ(ae->decode_local_reach(), 9);
+  torch::manual_seed(3);
+  at::Tensor image = torch::rand({1, 3, 8, 12}).repeat_interleave(16, 2).repeat_interleave(16, 3);  // 128x192
+  at::Tensor z;
+  {
+    torch::NoGradGuard no_grad;
+    z = ae->encode(image);
+  }
+  {
+    auto [part, whole] = window_and_whole(*ae, z, 4, 6, 6, ae->decode_local_reach());
+    EXPECT_LT((part - whole).abs().max().item<double>(), 2e-5);
+  }
+  {
+    auto [part, whole] = window_and_whole(*ae, z, 4, 6, 6, 0);
+    EXPECT_GT((part - whole).abs().max().item<double>(), 0.02);
+  }
+  // decode() is the clamped whole decode.
+  torch::NoGradGuard no_grad;
+  EXPECT_TRUE(torch::allclose(ae->decode(z), ae->decode_unclamped(z).clamp(0, 1)));
+}
+
+// Without group norms (TAESD's layout) the whole decoder is local: 18.125 cells -> 19.
+TEST(DecoderSplit, TinyWithoutPoolIsLocalThroughoutAndKlIsNotLocal) {
+  torch::manual_seed(0);
+  lrf::TinyAutoencoder tiny(4, false);
+  EXPECT_EQ(tiny.decode_local_reach(), 19);
+  at::Tensor z = torch::randn({1, 4, 44, 46});
+  auto [part, whole] = window_and_whole(tiny, z, 20, 21, 3, 19);
+  EXPECT_LT((part - whole).abs().max().item<double>(), 1e-5);
+  lrf::KLConfig cfg;
+  cfg.ch = 32;
+  lrf::KLAutoencoder kl(cfg);
+  EXPECT_EQ(kl.decode_local_reach(), -1);
+}
+
+TEST(DecodedLoss, WindowsStayInsideAndTheLossComparesTheMatchingPixels) {
+  std::mt19937_64 rng(1);
+  for (int k = 0; k < 200; ++k) {
+    auto w = lrf::plan_window(47, 63, 16, 9, rng);
+    ASSERT_GE(w.y, 0);
+    ASSERT_LE(w.y + w.h, 47);
+    ASSERT_LE(w.x + w.w, 63);
+    ASSERT_EQ(w.y0, std::max<int64_t>(0, w.y - 9));
+    ASSERT_EQ(w.x1, std::min<int64_t>(63, w.x + 16 + 9));
+  }
+  auto whole = lrf::plan_window(47, 63, 0, 9, rng);
+  EXPECT_EQ(whole.h, 47);
+  EXPECT_EQ(whole.w, 63);
+
+  // A latent that decodes to an image, and that image as the target: zero L1 in the window, whatever
+  // window; a target shifted by one latent cell is not.
+  auto ae = lrf::load_autoencoder(taef2());
+  lrf::LatentRange range;
+  range.min.assign(32, -4.0f);
+  range.max.assign(32, 4.0f);
+  torch::manual_seed(2);
+  at::Tensor zn = torch::rand({32, 10, 14}) * 0.4 + 0.3;
+  at::Tensor image;
+  {
+    torch::NoGradGuard no_grad;
+    image = ae->decode_unclamped(range.denormalize(zn).unsqueeze(0))[0];
+  }
+  for (int k = 0; k < 3; ++k) {
+    auto w = lrf::plan_window(10, 14, 4, ae->decode_local_reach(), rng);
+    auto d = lrf::decoded_loss(*ae, range, zn, image, w, 0.0);
+    EXPECT_LT(d.loss.item<double>(), 1e-5);
+    EXPECT_EQ(d.decoded.sizes(), (std::vector<int64_t>{3, 32, 32}));
+  }
+  auto w = lrf::plan_window(10, 14, 4, ae->decode_local_reach(), rng);
+  auto shifted = lrf::decoded_loss(*ae, range, zn, image.roll(8, 2), w, 0.0);
+  EXPECT_GT(shifted.loss.item<double>(), 1e-3);
+  // The gradient reaches the latent.
+  at::Tensor leaf = zn.clone().requires_grad_(true);
+  lrf::decoded_loss(*ae, range, leaf, image.roll(8, 2), w, 0.2).loss.backward();
+  EXPECT_GT(leaf.grad().abs().sum().item<double>(), 0);
+}
+
+// Mean image L1 of the decoded held-out views of a latent run (decoded by `decoder`, "" = the run's).
+double held_out_l1(const std::string& run_dir) {
+  lrf::LatentRun run = lrf::open_latent_run(run_dir);
+  auto ae = lrf::load_autoencoder(run.autoencoder, run.encoder, run.decoder);
+  double sum = 0;
+  for (int i : run.scene.test_indices) {
+    at::Tensor decoded = lrf::decode_normalised(*ae, run.range, lrf::render_latent(run, i));
+    at::Tensor truth = lrf::image_to_batch(run.scene.load_image(i))[0];
+    sum += (decoded - truth).abs().mean().item<double>();
+  }
+  return sum / double(run.scene.test_indices.size());
+}
+
+class RefineRun : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new lrf::test::TempDir("refine");
+    lrf::LatentTrainOptions o;
+    o.scene = lrf::test::synthetic_scene({16, "128x96", 7, 1500});
+    o.out = *dir_ / "field";
+    o.autoencoder = taef2();
+    o.iters = 300;
+    o.cache_dir = *dir_ / "cache";
+    lrf::train_latent_field(o);
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static lrf::RefineOptions options(const std::string& out, int64_t steps) {
+    lrf::RefineOptions r;
+    r.run = *dir_ / "field";
+    r.out = *dir_ / out;
+    r.steps = steps;
+    r.checkpoint_every = 20;
+    return r;
+  }
+  static lrf::test::TempDir* dir_;
+};
+lrf::test::TempDir* RefineRun::dir_ = nullptr;
+
+// The point of refinement: on the synthetic scene's held-out views (never used by either stage), the
+// decoded images get closer to the truth. Measured: mean L1 0.1076 -> 0.0944 (-12 %) after 60 steps. The
+// test asks for -8 %: with the targets shifted by two latent cells the same run gets -6.7 % (a smooth scene
+// forgives small shifts; DecodedLoss above catches any shift exactly), with no gradient 0 %.
+TEST_F(RefineRun, RefinementLowersTheImageLossOnHeldOutViews) {
+  const double before = held_out_l1(*dir_ / "field");
+  auto r = lrf::refine_latent_field(options("refined", 60));
+  EXPECT_EQ(r.steps, 60);
+  const double after = held_out_l1(*dir_ / "refined");
+  std::printf("held-out mean L1 %.4f -> %.4f\n", before, after);
+  EXPECT_LT(after, 0.92 * before) << "before " << before << " after " << after;
+  // A latent run like any other: eval works and reports the decoder it was refined through.
+  auto m = lrf::evaluate_latent_run(*dir_ / "refined", {});
+  EXPECT_EQ(m["decoder"], "stock");
+  const auto config = lrf::read_json_file(*dir_ / "refined/config.json");
+  EXPECT_EQ(config["refine"]["refined_from"], fs::weakly_canonical(*dir_ / "field").string());
+  EXPECT_GT(config["result"]["refine_seconds"].get<double>(), 0);
+}
+
+// Windows instead of whole views, interrupted and resumed: the same field as one uninterrupted run.
+TEST_F(RefineRun, ResumedWindowedRunEqualsUninterruptedRun) {
+  auto whole = options("uninterrupted", 40);
+  whole.crop = 48;
+  lrf::refine_latent_field(whole);
+  auto part = options("interrupted", 20);
+  part.crop = 48;
+  lrf::refine_latent_field(part);
+  part.steps = 40;
+  part.resume = true;
+  lrf::refine_latent_field(part);
+  auto a = lrf::splat::read_ply(*dir_ / "uninterrupted/point_cloud.ply", 32);
+  auto b = lrf::splat::read_ply(*dir_ / "interrupted/point_cloud.ply", 32);
+  ASSERT_EQ(a.size(), b.size());
+  EXPECT_TRUE(torch::equal(a.sh, b.sh));
+  EXPECT_TRUE(torch::equal(a.means, b.means));
+  // Another option on resume is refused.
+  part.lr_scale = 2;
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(part); }).find("other options"), std::string::npos);
+}
+
+TEST_F(RefineRun, BadInputIsReported) {
+  auto same = options("x", 5);
+  same.out = same.run;
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(same); }).find("another output folder"),
+            std::string::npos);
+  auto odd = options("y", 5);
+  odd.crop = 12;
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(odd); }).find("multiple of 8"), std::string::npos);
+  auto missing = options("z", 5);
+  missing.run = *dir_ / "no_such_run";
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(missing); }).find("config.json"), std::string::npos);
+  auto cli = lrf::test::run_lrf("refine " + (*dir_ / "no_such_run") + " -o " + (*dir_ / "w"));
+  EXPECT_NE(cli.exit_code, 0);
+  EXPECT_NE(cli.output.find("config.json"), std::string::npos) << cli.output;
+}
+
+}  // namespace
