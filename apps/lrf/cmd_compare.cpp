@@ -10,8 +10,9 @@
 namespace {
 
 lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
-  auto* cmd = root.add_subcommand("compare", "Table 1 on one scene: rgb/8, rgb/8-mip and latent fields, scored on the "
-                                             "test views; writes DIR/table.csv, table.md, report.html");
+  auto* cmd = root.add_subcommand("compare", "Table 1 on one scene: rgb/8, rgb/8-mip, latent and refined latent fields "
+                                             "(and the full-resolution rgb field on request), scored on the test "
+                                             "views; writes DIR/table.csv, table.md, report.html");
   auto o = std::make_shared<lrf::CompareOptions>();
   cmd->add_option("scene", o->scene, "Scene folder")->required();
   cmd->add_option("-o,--out", o->out, "Output folder (one subfolder per method; finished methods are reused)")->required();
@@ -20,11 +21,20 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   cmd->add_option("--test-every", o->test_every, "Hold out every N-th view for testing")->capture_default_str();
   cmd->add_option("--autoencoder", o->autoencoder, "Autoencoder of the latent field (name or path)")->capture_default_str();
   cmd->add_option("--encoder", o->encoder, "Fine-tuned encoder weights for the latent field (Stage I)");
-  cmd->add_option("--decoder", o->decoder, "Decoder weights to decode the latent field with (Stage III)");
+  cmd->add_option("--decoder", o->decoder,
+                  "Decoder weights to decode the latent field with, and to refine it through (Stage III)");
   cmd->add_option("--iters", o->iters, "Training steps of every method")->capture_default_str();
   cmd->add_option("--latent-iters", o->latent_iters, "Training steps of the latent field (0 = --iters)")->capture_default_str();
   cmd->add_option("--latent-sh-degree", o->latent_sh_degree, "SH degree of the latent field")->capture_default_str();
-  cmd->add_option("--methods", o->methods, "Methods to run: rgb/8, rgb/8-mip, latent")->capture_default_str();
+  cmd->add_option("--methods", o->methods,
+                  "Methods to run: rgb (full resolution), rgb/8, rgb/8-mip (RGB fields on 8x downscaled views), latent, "
+                  "latent-refined (the latent field refined through the decoder against the training images)")
+      ->capture_default_str();
+  cmd->add_option("--refine-steps", o->refine.steps, "latent-refined: refinement steps")->capture_default_str();
+  cmd->add_option("--refine-crop", o->refine.crop, "latent-refined: supervised square per step in pixels (0 = whole view)")
+      ->capture_default_str();
+  cmd->add_option("--refine-lr-scale", o->refine.lr_scale, "latent-refined: multiplies Stage II's learning rates")
+      ->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();

@@ -1,5 +1,6 @@
 #include "lrf/compare/compare.h"
 
+#include <algorithm>
 #include <filesystem>
 
 #include <torch/torch.h>
@@ -19,97 +20,13 @@
 #include "lrf/eval/table.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
-#include "lrf/splat/run/run_folder.h"
-#include "lrf/splat/render_field.h"
-#include "lrf/rgb/rgb_field.h"
+#include "lrf/refine/refine.h"
+#include "lrf/rgb/rgb_baseline.h"
 #include "lrf/splat/run/train_run.h"
 
 namespace fs = std::filesystem;
 
 namespace lrf {
-
-void train_rgb_at_latent_resolution(const std::string& scene_root, const SceneOptions& so_in, const std::string& out,
-                                    int64_t iters, bool mip, uint64_t seed, bool resume) {
-  using namespace lrf::splat;
-  SceneOptions so = so_in;
-  so.crop_to_multiple_of_8 = true;
-  Scene scene = load_scene(scene_root, so);
-  const auto lock = prepare_output_dir(out, true, resume);
-  std::vector<TrainView> views;
-  for (int i : scene.train_indices) {
-    const View& v = scene.views[static_cast<size_t>(i)];
-    Camera cam = latent_camera(v.camera);
-    views.push_back({v.name, cam, splat::image_to_tensor(resize_area(scene.load_image(i), cam.width, cam.height))});
-  }
-  TrainerOptions to;
-  to.iterations = iters;
-  to.sh_degree = 3;
-  to.mip = mip;
-  to.seed = seed;
-  to.schedule = DensifySchedule::for_iterations(iters);
-  to.background = torch::zeros({3});
-  const double extent = scene.camera_extent();
-  auto config = run_record({{"scene", scene_root}, {"iters", iters}, {"mip", mip}, {"seed", seed}});
-  config.update(scene_config(scene_root, so, scene));
-  config["space"] = "rgb";
-  config["sh_degree"] = 3;
-  config["mip"] = mip;
-  config["background"] = {0.0f, 0.0f, 0.0f};
-  config["extent"] = extent;
-  config["train_resolution"] = {views.front().camera.width, views.front().camera.height};
-  const std::string config_path = (fs::path(out) / "config.json").string();
-  write_json_file(config_path, config);
-  Trainer trainer(std::move(views), init_rgb_field(scene, 3, seed), extent, to);
-  RunOptions ro;
-  ro.out = out;
-  ro.resume = resume;
-  ro.task = mip ? "train-rgb/8-mip" : "train-rgb/8";
-  auto summary = run_training(trainer, ro);
-  config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},
-                      {"peak_memory_mb", peak_memory_mb()}};
-  write_json_file(config_path, config);
-}
-
-nlohmann::json evaluate_rgb_run(const std::string& out, const std::string& lpips_weights) {
-  using namespace lrf::splat;
-  FieldRun run = open_field_run(out);
-  if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
-  std::optional<Lpips> lpips;
-  if (!lpips_weights.empty()) lpips = Lpips::from_state_dict(tensor_map(load_state_dict(lpips_weights)), lpips_weights);
-  const std::string image_dir = (fs::path(out) / "eval").string();
-  fs::create_directories(image_dir);
-  std::vector<ImageScores> scores;
-  nlohmann::json views = nlohmann::json::array();
-  double render_seconds = 0;
-  for (int i : run.scene.test_indices) {
-    const View& v = run.scene.views[static_cast<size_t>(i)];
-    Stopwatch clock;
-    auto image = render_field(run.field, v.camera, run.render).image.clamp(0, 1);
-    render_seconds += clock.seconds();
-    cv::Mat rendered = splat::tensor_to_image(image);
-    ImageScores s = score_image(run.scene.load_image(i), rendered, lpips ? &*lpips : nullptr, v.name);
-    scores.push_back(s);
-    auto j = scores_json(s);
-    j["name"] = v.name;
-    views.push_back(j);
-    write_image_rgb((fs::path(image_dir) / (fs::path(v.name).stem().string() + ".png")).string(), rendered);
-  }
-  nlohmann::json metrics = scores_json(mean_scores(scores));
-  if (!lpips) metrics["lpips_reason"] = "no --lpips-weights given";
-  metrics["views"] = views;
-  metrics["resolution"] = {run.scene.views[0].camera.width, run.scene.views[0].camera.height};
-  metrics["gaussians"] = run.field.size();
-  metrics["render_fps"] = double(scores.size()) / std::max(render_seconds, 1e-9);
-  std::error_code ec;
-  metrics["storage_mb"] = double(fs::file_size(fs::path(out) / "point_cloud.ply", ec)) / (1 << 20);
-  if (run.config.contains("result")) {
-    metrics["train_seconds"] = run.config["result"].value("seconds", 0.0);
-    metrics["peak_memory_mb"] = run.config["result"].value("peak_memory_mb", 0.0);
-  }
-  metrics["run"] = run_record({{"out", out}, {"lpips_weights", lpips_weights}});
-  write_json_file((fs::path(out) / "metrics.json").string(), metrics);
-  return metrics;
-}
 
 namespace {
 
@@ -122,9 +39,15 @@ std::string method_dir(const std::string& method) {
 
 }  // namespace
 
+const std::vector<std::string>& compare_methods() {
+  static const std::vector<std::string> m = {"rgb", "rgb/8", "rgb/8-mip", "latent", "latent-refined"};
+  return m;
+}
+
 nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& m : o.methods) {
-    if (m != "rgb/8" && m != "rgb/8-mip" && m != "latent") fail("unknown method '" + m + "' (rgb/8, rgb/8-mip, latent)");
+    if (std::find(compare_methods().begin(), compare_methods().end(), m) == compare_methods().end())
+      fail("unknown method '" + m + "' (rgb, rgb/8, rgb/8-mip, latent, latent-refined)");
   }
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
@@ -134,6 +57,34 @@ nlohmann::json run_compare(const CompareOptions& o) {
   so.test_every = o.test_every;
   so.crop_to_multiple_of_8 = true;
   Scene scene = load_scene(o.scene, so);
+  auto resumable = [&](const std::string& dir) {
+    return !o.force && fs::exists(splat::checkpoint_path(dir)) && !fs::exists(fs::path(dir) / "point_cloud.ply");
+  };
+  // The latent field: the latent row, and what latent-refined starts from.
+  const std::string latent_dir = (fs::path(o.out) / "latent").string();
+  bool latent_fresh = false;  // trained by this call (then a refined field made from an older one is stale)
+  auto ensure_latent_field = [&] {
+    if (!o.force && fs::exists(fs::path(latent_dir) / "point_cloud.ply")) return;
+    if (latent_fresh) return;
+    const bool resume = resumable(latent_dir);
+    log_info(std::string("== latent field") + (resume ? " (resuming)" : ""));
+    LatentTrainOptions l;
+    l.scene = o.scene;
+    l.out = latent_dir;
+    l.images = o.images;
+    l.downscale = o.downscale;
+    l.test_every = o.test_every;
+    l.autoencoder = o.autoencoder;
+    l.encoder = o.encoder;
+    l.cache_dir = o.cache_dir;
+    l.sh_degree = o.latent_sh_degree;
+    l.iters = o.latent_iters > 0 ? o.latent_iters : o.iters;
+    l.seed = o.seed;
+    l.resume = resume;
+    l.force = !resume;
+    train_latent_field(l);
+    latent_fresh = true;
+  };
   nlohmann::json all = nlohmann::json::object();
   for (const auto& method : o.methods) {
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
@@ -143,33 +94,41 @@ nlohmann::json run_compare(const CompareOptions& o) {
       all[method] = read_json_file(metrics_path);
       continue;
     }
-    const bool resume = !o.force && fs::exists(splat::checkpoint_path(dir)) && !fs::exists(fs::path(dir) / "point_cloud.ply");
+    const bool resume = resumable(dir);
     log_info("== " + method + (resume ? " (resuming)" : ""));
     if (method == "latent") {
-      if (o.force || !fs::exists(fs::path(dir) / "point_cloud.ply")) {
-        LatentTrainOptions l;
-        l.scene = o.scene;
-        l.out = dir;
-        l.images = o.images;
-        l.downscale = o.downscale;
-        l.test_every = o.test_every;
-        l.autoencoder = o.autoencoder;
-        l.encoder = o.encoder;
-        l.cache_dir = o.cache_dir;
-        l.sh_degree = o.latent_sh_degree;
-        l.iters = o.latent_iters > 0 ? o.latent_iters : o.iters;
-        l.seed = o.seed;
-        l.resume = resume;
-        l.force = !resume;
-        train_latent_field(l);
-      }
+      ensure_latent_field();
       LatentEvalOptions le;
       le.decoder = o.decoder;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
+    } else if (method == "latent-refined") {
+      ensure_latent_field();
+      if (o.force || latent_fresh || !fs::exists(fs::path(dir) / "point_cloud.ply")) {
+        RefineOptions r = o.refine;
+        r.run = latent_dir;
+        r.out = dir;
+        r.decoder = o.decoder;
+        r.seed = o.seed;
+        r.resume = resume && !latent_fresh;
+        r.force = !r.resume;
+        refine_latent_field(r);
+      }
+      LatentEvalOptions le;
+      le.lpips_weights = o.lpips_weights;
+      all[method] = evaluate_latent_run(dir, le);
     } else {
       if (o.force || !fs::exists(fs::path(dir) / "point_cloud.ply")) {
-        train_rgb_at_latent_resolution(o.scene, so, dir, o.iters, method == "rgb/8-mip", o.seed, resume);
+        RgbBaselineOptions b;
+        b.scene = o.scene;
+        b.scene_options = so;
+        b.out = dir;
+        b.factor = method == "rgb" ? 1 : 8;
+        b.iters = o.iters;
+        b.mip = method == "rgb/8-mip";
+        b.seed = o.seed;
+        b.resume = resume;
+        train_rgb_baseline(b);
       }
       all[method] = evaluate_rgb_run(dir, o.lpips_weights);
     }
@@ -200,7 +159,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        "3D Gaussian splatting trained on the views downscaled 8x and rendered at full resolution "
                        "(the paper's 3DGS/8 and Mip-Splatting/8); latent: a latent field with the " +
                        o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE). " + std::to_string(o.iters) +
-                       " iterations.");
+                       " iterations. rgb: RGB 3D Gaussian splatting on the full-resolution views. latent-refined: "
+                       "the latent field refined through the decoder against the training images (lrf refine, " +
+                       std::to_string(o.refine.steps) + " steps).");
   if (!all.empty() && all.begin()->value("lpips", nlohmann::json()).is_null())
     spec.notes.push_back("LPIPS not computed: pass --lpips-weights with the lpips v0.1 VGG weights.");
   spec.max_image_side = 640;

@@ -1,0 +1,115 @@
+#include "lrf/rgb/rgb_baseline.h"
+
+#include <filesystem>
+
+#include <torch/torch.h>
+
+#include "lrf/core/error.h"
+#include "lrf/core/image_io.h"
+#include "lrf/core/progress.h"
+#include "lrf/core/resources.h"
+#include "lrf/core/run_info.h"
+#include "lrf/core/state_dict.h"
+#include "lrf/eval/lpips.h"
+#include "lrf/eval/scores.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/rgb/rgb_field.h"
+#include "lrf/splat/render_field.h"
+#include "lrf/splat/run/run_folder.h"
+#include "lrf/splat/run/train_run.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+
+void train_rgb_baseline(const RgbBaselineOptions& o) {
+  using namespace lrf::splat;
+  if (o.factor < 1) fail("rgb baseline: the downscale factor must be at least 1");
+  const std::string& scene_root = o.scene;
+  const std::string& out = o.out;
+  const int64_t iters = o.iters;
+  const bool mip = o.mip;
+  const uint64_t seed = o.seed;
+  SceneOptions so = o.scene_options;
+  so.crop_to_multiple_of_8 = true;
+  Scene scene = load_scene(scene_root, so);
+  const auto lock = prepare_output_dir(out, true, o.resume);
+  std::vector<TrainView> views;
+  for (int i : scene.train_indices) {
+    const View& v = scene.views[static_cast<size_t>(i)];
+    Camera cam = o.factor == 1 ? v.camera : latent_camera(v.camera, o.factor);
+    cv::Mat image = scene.load_image(i);
+    if (o.factor != 1) image = resize_area(image, cam.width, cam.height);
+    views.push_back({v.name, cam, splat::image_to_tensor(image)});
+  }
+  TrainerOptions to;
+  to.iterations = iters;
+  to.sh_degree = 3;
+  to.mip = mip;
+  to.seed = seed;
+  to.schedule = DensifySchedule::for_iterations(iters);
+  to.background = torch::zeros({3});
+  const double extent = scene.camera_extent();
+  auto config = run_record({{"scene", scene_root}, {"iters", iters}, {"mip", mip}, {"seed", seed}, {"factor", o.factor}});
+  config.update(scene_config(scene_root, so, scene));
+  config["space"] = "rgb";
+  config["sh_degree"] = 3;
+  config["mip"] = mip;
+  config["background"] = {0.0f, 0.0f, 0.0f};
+  config["extent"] = extent;
+  config["train_resolution"] = {views.front().camera.width, views.front().camera.height};
+  const std::string config_path = (fs::path(out) / "config.json").string();
+  write_json_file(config_path, config);
+  Trainer trainer(std::move(views), init_rgb_field(scene, 3, seed), extent, to);
+  RunOptions ro;
+  ro.out = out;
+  ro.resume = o.resume;
+  ro.task = std::string("train-rgb") + (o.factor == 1 ? "" : "/" + std::to_string(o.factor)) + (mip ? "-mip" : "");
+  auto summary = run_training(trainer, ro);
+  config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},
+                      {"peak_memory_mb", peak_memory_mb()}};
+  write_json_file(config_path, config);
+}
+
+nlohmann::json evaluate_rgb_run(const std::string& out, const std::string& lpips_weights) {
+  using namespace lrf::splat;
+  FieldRun run = open_field_run(out);
+  if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
+  std::optional<Lpips> lpips;
+  if (!lpips_weights.empty()) lpips = Lpips::from_state_dict(tensor_map(load_state_dict(lpips_weights)), lpips_weights);
+  const std::string image_dir = (fs::path(out) / "eval").string();
+  fs::create_directories(image_dir);
+  std::vector<ImageScores> scores;
+  nlohmann::json views = nlohmann::json::array();
+  double render_seconds = 0;
+  for (int i : run.scene.test_indices) {
+    const View& v = run.scene.views[static_cast<size_t>(i)];
+    Stopwatch clock;
+    auto image = render_field(run.field, v.camera, run.render).image.clamp(0, 1);
+    render_seconds += clock.seconds();
+    cv::Mat rendered = splat::tensor_to_image(image);
+    ImageScores s = score_image(run.scene.load_image(i), rendered, lpips ? &*lpips : nullptr, v.name);
+    scores.push_back(s);
+    auto j = scores_json(s);
+    j["name"] = v.name;
+    views.push_back(j);
+    write_image_rgb((fs::path(image_dir) / (fs::path(v.name).stem().string() + ".png")).string(), rendered);
+  }
+  nlohmann::json metrics = scores_json(mean_scores(scores));
+  if (!lpips) metrics["lpips_reason"] = "no --lpips-weights given";
+  metrics["views"] = views;
+  metrics["resolution"] = {run.scene.views[0].camera.width, run.scene.views[0].camera.height};
+  metrics["gaussians"] = run.field.size();
+  metrics["render_fps"] = double(scores.size()) / std::max(render_seconds, 1e-9);
+  std::error_code ec;
+  metrics["storage_mb"] = double(fs::file_size(fs::path(out) / "point_cloud.ply", ec)) / (1 << 20);
+  if (run.config.contains("result")) {
+    metrics["train_seconds"] = run.config["result"].value("seconds", 0.0);
+    metrics["peak_memory_mb"] = run.config["result"].value("peak_memory_mb", 0.0);
+  }
+  metrics["run"] = run_record({{"out", out}, {"lpips_weights", lpips_weights}});
+  write_json_file((fs::path(out) / "metrics.json").string(), metrics);
+  return metrics;
+}
+
+}  // namespace lrf
