@@ -28,6 +28,7 @@ lrf::PipelineOptions tiny_pipeline(const std::string& out) {
   o.stage1.lr = 1e-4;
   o.field_iters = 60;
   o.stage3_steps = 3;
+  o.refine.steps = 3;
   return o;
 }
 
@@ -67,9 +68,14 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   // A second run reuses every artefact: nothing is retrained (the files keep their times).
   const auto enc_time = fs::last_write_time(dir / "run/stage1/encoder.safetensors");
   const auto dec_time = fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors");
+  const std::string refined = dir / "run/fields/" + fs::path(o.eval_scenes[0]).filename().string() + "-ft-refined";
+  const auto refined_time = fs::last_write_time(refined + "/point_cloud.ply");
+  // The both+refine field went through the Stage III decoder, and its row is decoded by it.
+  EXPECT_EQ(lrf::read_json_file(refined + "/config.json")["decoder"], dir / "run/stage3/decoder-ft.safetensors");
   lrf::run_pipeline(o);
   EXPECT_EQ(fs::last_write_time(dir / "run/stage1/encoder.safetensors"), enc_time);
   EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
+  EXPECT_EQ(fs::last_write_time(refined + "/point_cloud.ply"), refined_time);
 
   // The same folder with other Stage I options is refused, not mixed.
   lrf::PipelineOptions other = o;
@@ -83,6 +89,11 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("the field in this folder was made with other settings"), std::string::npos) << msg;
   EXPECT_NE(msg.find("iters (60 vs 61)"), std::string::npos) << msg;
+  // And refined fields of another length.
+  other = o;
+  other.refine.steps = 4;
+  msg = error_of([&] { lrf::run_pipeline(other); });
+  EXPECT_NE(msg.find("the refined field in this folder was made with other settings"), std::string::npos) << msg;
 }
 
 TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {

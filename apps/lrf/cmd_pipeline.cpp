@@ -14,7 +14,9 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       "pipeline",
       "The paper's three stages and its ablation: Stage I (encoder) on the training scenes, latent fields with the "
       "stock and the new encoder, Stage III (decoder) on the training scenes' fields, then on the evaluation scenes "
-      "the rows stock / encoder / decoder / both (+ rgb/8): DIR/ablation.csv, DIR/ablation.md, DIR/report.html, "
+      "the rows stock / encoder / decoder / both, the stock and both fields refined through their decoder "
+      "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip and rgb: DIR/ablation.csv, "
+      "DIR/ablation.md, DIR/report.html, "
       "DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
       "command is run again");
   auto o = std::make_shared<lrf::PipelineOptions>();
@@ -26,7 +28,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
                   "Downscale each scene's images by the smallest integer factor bringing the longer side to at most "
                   "this many pixels")
       ->capture_default_str();
-  cmd->add_option("--field-iters", o->field_iters, "Iterations of every latent field and of the rgb/8 baseline")
+  cmd->add_option("--field-iters", o->field_iters, "Iterations of every latent field and of the RGB baselines")
       ->capture_default_str();
   cmd->add_option("--stage1-steps", o->stage1.steps, "Stage I steps")->capture_default_str();
   cmd->add_option("--stage1-pairs", o->stage1.batch.pairs, "Stage I view pairs per step")->capture_default_str();
@@ -44,7 +46,13 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--seed", o->seed, "Seed of every stage")->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS (v0.1 VGG) weights; without them LPIPS is not computed");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default: $LRF_CACHE or ~/.cache/lrf)");
-  cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the rgb/8 reference row");
+  cmd->add_option("--refine-steps", o->refine.steps, "Steps of each refinement (the +refine rows)")->capture_default_str();
+  cmd->add_option("--refine-crop", o->refine.crop, "Refinement: supervised square per step in pixels (0 = whole view)")
+      ->capture_default_str();
+  cmd->add_option("--refine-lr-scale", o->refine.lr_scale, "Refinement: multiplies Stage II's learning rates")
+      ->capture_default_str();
+  cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the image-space baselines (rgb/8, rgb/8-mip, rgb)");
+  cmd->add_flag("!--no-refine", o->refine_rows, "Skip the refined rows (stock+refine, both+refine)");
   lrf::cli::on_run(cmd, [o] {
     auto record = lrf::run_pipeline(*o);
     std::printf("%s", lrf::read_file((std::filesystem::path(o->out) / "ablation.md").string()).c_str());

@@ -12,7 +12,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
-#include "lrf/compare/compare.h"
+#include "lrf/rgb/rgb_baseline.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/finetune/decoder_finetune.h"
@@ -116,13 +116,45 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
   train_latent_field(l);
 }
 
-void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir) {
+// An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
+void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
+                      int factor, bool mip) {
   if (reusable_field(dir, field_settings(scene, downscale, o.field_iters, o.seed, ""))) return;
-  SceneOptions so;
-  so.downscale = downscale;
-  const bool resume = fs::exists(splat::checkpoint_path(dir));
-  log_info("== rgb/8 field " + dir + (resume ? " (resuming)" : ""));
-  train_rgb_at_latent_resolution(scene, so, dir, o.field_iters, false, o.seed, resume);
+  RgbBaselineOptions b;
+  b.scene = scene;
+  b.scene_options.downscale = downscale;
+  b.out = dir;
+  b.factor = factor;
+  b.iters = o.field_iters;
+  b.mip = mip;
+  b.seed = o.seed;
+  b.resume = fs::exists(splat::checkpoint_path(dir));
+  log_info("== RGB field " + dir + (b.resume ? " (resuming)" : ""));
+  train_rgb_baseline(b);
+}
+
+// A field refined through `decoder`: reused when finished with the same settings, resumed when interrupted.
+void ensure_refined_field(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+                          const std::string& dir) {
+  RefineOptions r = o.refine;
+  r.run = field;
+  r.out = dir;
+  r.decoder = decoder;
+  r.seed = o.seed;
+  const std::string config = (fs::path(dir) / "config.json").string();
+  if (run_finished(dir)) {
+    const nlohmann::json recorded = read_json_file(config);
+    const nlohmann::json refine = recorded.value("refine", nlohmann::json::object());
+    require_same_settings(config, {{"refine", refine.value("resume_key", nlohmann::json())},
+                                   {"steps", recorded["result"].value("steps", int64_t(0))}},
+                          {{"refine", refine_resume_key(r)}, {"steps", r.steps}}, "the refined field", dir);
+    log_info("reusing refined field " + dir);
+    return;
+  }
+  r.resume = fs::exists(splat::checkpoint_path(dir)) && fs::exists(config);
+  r.force = !r.resume;
+  log_info("== refine " + field + " -> " + dir + (r.resume ? " (resuming)" : ""));
+  refine_latent_field(r);
 }
 
 void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
@@ -196,9 +228,14 @@ std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
 }  // namespace
 
 const std::vector<std::string>& ablation_rows() {
-  static const std::vector<std::string> rows = {"rgb/8", "stock", "encoder", "decoder", "both"};
+  static const std::vector<std::string> rows = {"rgb/8",   "rgb/8-mip", "rgb",  "stock",        "encoder",
+                                                "decoder", "both",      "stock+refine", "both+refine"};
   return rows;
 }
+
+namespace {
+bool image_space_row(const std::string& row) { return row.rfind("rgb", 0) == 0; }
+}  // namespace
 
 void check_no_overlap(const std::vector<std::string>& train_scenes, const std::vector<std::string>& eval_scenes) {
   std::set<std::string> train;
@@ -229,6 +266,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"max_side", o.max_side},
                            {"field_iters", o.field_iters},
                            {"stage3_steps", o.stage3_steps},
+                           {"refine", refine_options_json(o.refine)},
+                           {"refine_rows", o.refine_rows},
                            {"stage1", encoder_finetune_options_json(o.stage1)},
                            {"seed", o.seed}};
   for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical(s));
@@ -290,17 +329,34 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     std::map<std::string, nlohmann::json> m;
     std::map<std::string, std::string> image_dirs;
     if (o.rgb_baseline) {
-      const std::string rgb = paths.field(s, "rgb8");
-      ensure_rgb_field(o, s, downscale[s], rgb);
-      const std::string metrics = (fs::path(rgb) / "metrics.json").string();
-      m["rgb/8"] = fs::exists(metrics) ? read_json_file(metrics) : evaluate_rgb_run(rgb, o.lpips_weights);
-      image_dirs["rgb/8"] = (fs::path(rgb) / "eval").string();
+      struct Baseline {
+        const char* row;
+        const char* tag;
+        int factor;
+        bool mip;
+      };
+      for (const Baseline& b : {Baseline{"rgb/8", "rgb8", 8, false}, Baseline{"rgb/8-mip", "rgb8mip", 8, true},
+                                Baseline{"rgb", "rgb", 1, false}}) {
+        const std::string rgb = paths.field(s, b.tag);
+        ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
+        const std::string metrics = (fs::path(rgb) / "metrics.json").string();
+        m[b.row] = fs::exists(metrics) ? read_json_file(metrics) : evaluate_rgb_run(rgb, o.lpips_weights);
+        image_dirs[b.row] = (fs::path(rgb) / "eval").string();
+      }
     }
-    const std::map<std::string, std::pair<std::string, std::string>> latent_rows = {
+    std::map<std::string, std::pair<std::string, std::string>> latent_rows = {
         {"stock", {stock_field, ""}},
         {"encoder", {ft_field, ""}},
         {"decoder", {stock_field, paths.decoder("stock")}},
         {"both", {ft_field, paths.decoder("ft")}}};
+    if (o.refine_rows) {
+      // Each refined field is decoded by the decoder it was refined through (recorded in its config).
+      const std::string stock_refined = paths.field(s, "stock-refined"), ft_refined = paths.field(s, "ft-refined");
+      ensure_refined_field(o, stock_field, "", stock_refined);
+      ensure_refined_field(o, ft_field, paths.decoder("ft"), ft_refined);
+      latent_rows["stock+refine"] = {stock_refined, ""};
+      latent_rows["both+refine"] = {ft_refined, ""};
+    }
     for (const auto& [row, spec_pair] : latent_rows) {
       const std::string dir = paths.eval(s, row);
       m[row] = ensure_latent_eval(o, spec_pair.first, spec_pair.second, dir);
@@ -310,7 +366,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     for (const auto& row : ablation_rows()) {
       if (!m.count(row)) continue;
       const auto& r = m[row];
-      const bool latent = row != "rgb/8";
+      const bool latent = !image_space_row(row);
       rows.push_back({scene_name(s), row, Cell::number_in(r, "psnr"),
                       r.contains("psnr") ? Cell(r["psnr"].get<double>() - stock_psnr) : Cell(),
                       Cell::number_in(r, "ssim"), Cell::number_in(r, "lpips"),
@@ -373,8 +429,11 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        " iterations.");
   spec.notes.push_back("Rows as in the paper's Table 3: stock = latent field with the stock encoder, decoded by the stock "
                        "decoder; encoder = Stage I encoder; decoder = Stage III decoder fine-tuned on stock-encoder "
-                       "fields; both = Stage I encoder and the decoder fine-tuned on its fields. rgb/8 = RGB 3DGS at "
-                       "latent resolution, for reference. delta_psnr is against the stock row.");
+                       "fields; both = Stage I encoder and the decoder fine-tuned on its fields. stock+refine and "
+                       "both+refine: those fields refined through their decoder against the scene's training images "
+                       "(lrf refine, " + std::to_string(o.refine.steps) + " steps). Image-space baselines: rgb/8 and "
+                       "rgb/8-mip = RGB 3DGS and Mip-Splatting trained at latent resolution (the paper's 3DGS/8 and "
+                       "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. delta_psnr is against the stock row.");
   write_html_report((fs::path(o.out) / "report.html").string(), spec);
   record["results"] = results;
   record["wall_seconds_this_session"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

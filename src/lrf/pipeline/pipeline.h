@@ -5,7 +5,10 @@
 //   Stage II  latent fields of every scene with the stock and the new encoder DIR/fields/<scene>-{stock,ft}
 //   Stage III decoders fine-tuned on the training scenes' fields: one on the   DIR/stage3/decoder-{stock,ft}.safetensors
 //             stock-encoder fields (the "decoder only" row), one on the new-encoder fields ("both")
-//   rgb/8     an RGB field at latent resolution on each evaluation scene     DIR/fields/<scene>-rgb8
+//   refine    the eval scenes' fields refined through a decoder against     DIR/fields/<scene>-{stock,ft}-refined
+//             their own training images (stock field + stock decoder; Stage I field + Stage III decoder)
+//   baselines RGB fields on each evaluation scene: rgb/8 and rgb/8-mip at     DIR/fields/<scene>-{rgb8,rgb8mip,rgb}
+//             latent resolution, rgb at full resolution
 //   scores    DIR/eval/<scene>/<row>/metrics.json, DIR/ablation.csv / .md, DIR/report.html
 // Every artefact is kept; a re-run reuses what is finished and resumes what was interrupted. DIR/pipeline.json
 // records the inputs of every stage (the evidence that evaluation scenes fed no training).
@@ -16,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/finetune/encoder_finetune.h"
+#include "lrf/refine/refine.h"
 
 namespace lrf {
 
@@ -24,16 +28,19 @@ struct PipelineOptions {
   std::string autoencoder = "taef2", out, lpips_weights, cache_dir;
   int max_side = 640;               // every scene's images are downscaled to fit (integer factor)
   EncoderFinetuneOptions stage1;    // steps, batch, lambdas, learning rate (scenes and paths are set here)
-  int64_t field_iters = 3000;       // Stage II iterations per latent field, and the rgb/8 baseline's
+  int64_t field_iters = 7000;       // Stage II iterations per latent field, and the RGB baselines'
   int64_t stage3_steps = 300;
   double stage3_lr = 0;             // 0: the decoder fine-tuning's default
   int stage3_crop = 0;              // 0: the decoder fine-tuning's default
   uint64_t seed = 0;
-  bool rgb_baseline = true;
+  RefineOptions refine;             // the refined rows: steps, crop, learning rates (the rest is set here)
+  bool rgb_baseline = true;         // the rgb/8, rgb/8-mip and rgb rows
+  bool refine_rows = true;          // the stock+refine and both+refine rows
 };
 
-// The ablation rows, in table order.
-const std::vector<std::string>& ablation_rows();  // rgb/8, stock, encoder, decoder, both
+// The ablation rows, in table order: the image-space baselines (rgb/8, rgb/8-mip, rgb), the paper's
+// rows (stock, encoder, decoder, both), then the refined fields (stock+refine, both+refine).
+const std::vector<std::string>& ablation_rows();
 
 // Runs (or reuses) every step; returns the summary written to DIR/pipeline.json.
 nlohmann::json run_pipeline(const PipelineOptions& options);
