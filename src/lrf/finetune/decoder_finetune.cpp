@@ -147,13 +147,13 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     double l_train = 0, l_novel = 0;
     if (o.weight_train > 0) {
       auto [z, x] = sample_crops(train, o.batch, crop, rng);
-      at::Tensor l = (ae->decode(z) - x).abs().mean();
+      at::Tensor l = (ae->decode_unclamped(z) - x).abs().mean();
       l_train = l.item<double>();
       loss = loss + o.weight_train * l;
     }
     if (o.weight_novel > 0) {
       auto [z, x] = sample_crops(novel, o.batch, crop, rng);
-      at::Tensor l = (ae->decode(z) - x).abs().mean();
+      at::Tensor l = (ae->decode_unclamped(z) - x).abs().mean();
       l_novel = l.item<double>();
       loss = loss + o.weight_novel * l;
     }

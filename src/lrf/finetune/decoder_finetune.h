@@ -4,7 +4,9 @@
 // encoded latents (blur, floaters, view-dependent leftovers), so only the decoder is fine-tuned to turn
 // them into the real images:
 //   loss = weight_train * mean |D(Z_train) - I_train| + weight_novel * mean |D(Z_novel) - I_novel|
-// on random aligned crops (latent crop c/8, image crop c at 8x the offset).
+// on random aligned crops (latent crop c/8, image crop c at 8x the offset), on the decoder's output before
+// its [0, 1] clamp: through the clamp a pixel decoded past 0 or 1 would get no gradient back (measured on
+// fern in an earlier branch: 20.60 -> 21.02 dB with the unclamped loss, same schedule).
 #include <cstdint>
 #include <string>
 #include <vector>
