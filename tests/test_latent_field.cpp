@@ -2,6 +2,7 @@
 // decode and evaluation, and the bad-input cases (changed autoencoder, corrupt cache).
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
@@ -69,9 +70,22 @@ TEST(LatentField, ShortFitOnSyntheticSceneRendersHeldOutViews) {
   EXPECT_LT(m["psnr"].get<double>(), m["roundtrip_psnr"].get<double>() + 1.0);
   EXPECT_TRUE(fs::exists(tmp / "field/eval/view_000.png"));
 
-  // The autoencoder's files changing under a trained field is reported, not silently used.
+  // A fresh copy of the same weights (a new time stamp) keeps the field usable...
   const std::string decoder = tmp / "models/taef2/taef2_decoder.pth";
   fs::last_write_time(decoder, fs::last_write_time(decoder) + std::chrono::hours(1));
+  EXPECT_NO_THROW(lrf::open_latent_run(o.out));
+  // ...but other weights of the same size under the same name are reported, not silently used.
+  {
+    std::fstream f(decoder, std::ios::in | std::ios::out | std::ios::binary);
+    // The middle of the file is tensor data, so the archive stays readable.
+    const auto middle = static_cast<std::streamoff>(fs::file_size(decoder) / 2);
+    f.seekg(middle);
+    char c = 0;
+    f.read(&c, 1);
+    f.seekp(middle);
+    c = static_cast<char>(c ^ 0x01);
+    f.write(&c, 1);
+  }
   try {
     lrf::open_latent_run(o.out);
     FAIL() << "expected an error";

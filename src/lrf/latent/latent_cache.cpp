@@ -3,7 +3,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
+#include <vector>
 
 #include <ATen/ATen.h>
 #include <torch/torch.h>
@@ -39,6 +41,28 @@ std::string file_stamp(const std::string& path) {
   return s.str();
 }
 
+// Weights are named by their content, not their path or time: a copy or a fresh download of the same
+// file keeps every run and cache made with it valid, and an edited file of the same size does not.
+std::string content_stamp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path, "cannot read the weights file");
+  uint64_t h = 1469598103934665603ull;
+  uint64_t size = 0;
+  std::vector<char> block(1 << 16);
+  while (in) {
+    in.read(block.data(), static_cast<std::streamsize>(block.size()));
+    const auto n = static_cast<size_t>(in.gcount());
+    for (size_t i = 0; i < n; ++i) {
+      h ^= static_cast<unsigned char>(block[i]);
+      h *= 1099511628211ull;
+    }
+    size += n;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return fs::path(path).filename().string() + ":" + std::to_string(size) + ":" + hex;
+}
+
 }  // namespace
 
 std::string default_cache_dir() {
@@ -50,12 +74,12 @@ std::string default_cache_dir() {
 
 std::string autoencoder_identity(const std::string& name_or_path, const std::string& encoder_override) {
   AutoencoderFiles files = resolve_autoencoder(name_or_path);
-  std::string id = "encoder=" + file_stamp(files.encoder) + ";decoder=" + file_stamp(files.decoder);
-  if (!encoder_override.empty()) id += ";encoder_override=" + file_stamp(encoder_override);
+  std::string id = "encoder=" + content_stamp(files.encoder) + ";decoder=" + content_stamp(files.decoder);
+  if (!encoder_override.empty()) id += ";encoder_override=" + content_stamp(encoder_override);
   return id;
 }
 
-std::string weights_file_identity(const std::string& path) { return file_stamp(path); }
+std::string weights_file_identity(const std::string& path) { return content_stamp(path); }
 
 LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>& indices, Autoencoder& ae,
                                       const std::string& ae_identity, const std::string& cache_dir) {
