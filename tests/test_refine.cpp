@@ -203,6 +203,40 @@ TEST_F(RefineRun, ResumedWindowedRunEqualsUninterruptedRun) {
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(part); }).find("other options"), std::string::npos);
 }
 
+// With --decoder-lr the decoder adapts with the field: it is saved in OUT, becomes the run's decoder (eval
+// uses it), differs from the stock decoder, and a resumed run ends with the same field and decoder.
+TEST_F(RefineRun, AdaptedDecoderIsSavedUsedAndResumedExactly) {
+  auto whole = options("adapt_whole", 12);
+  whole.decoder_lr = 1e-4;
+  whole.crop = 48;
+  lrf::refine_latent_field(whole);
+  auto part = options("adapt_part", 6);
+  part.decoder_lr = 1e-4;
+  part.crop = 48;
+  part.checkpoint_every = 3;
+  lrf::refine_latent_field(part);
+  part.steps = 12;
+  part.resume = true;
+  lrf::refine_latent_field(part);
+  const std::string dec_whole = *dir_ / "adapt_whole/decoder.safetensors";
+  const std::string dec_part = *dir_ / "adapt_part/decoder.safetensors";
+  ASSERT_TRUE(fs::exists(dec_whole));
+  auto a = lrf::load_autoencoder(taef2(), "", dec_whole), b = lrf::load_autoencoder(taef2(), "", dec_part);
+  auto stock = lrf::load_autoencoder(taef2());
+  auto da = a->decoder_state(), db = b->decoder_state(), ds = stock->decoder_state();
+  int changed = 0;
+  for (const auto& item : da) {
+    EXPECT_TRUE(torch::equal(item.value(), db[item.key()])) << item.key();
+    changed += !torch::equal(item.value(), ds[item.key()]);
+  }
+  EXPECT_GT(changed, 0);
+  EXPECT_TRUE(torch::equal(lrf::splat::read_ply(*dir_ / "adapt_whole/point_cloud.ply", 32).sh,
+                           lrf::splat::read_ply(*dir_ / "adapt_part/point_cloud.ply", 32).sh));
+  lrf::LatentRun run = lrf::open_latent_run(*dir_ / "adapt_whole");
+  EXPECT_EQ(fs::weakly_canonical(run.decoder), fs::weakly_canonical(dec_whole));
+  EXPECT_EQ(lrf::evaluate_latent_run(*dir_ / "adapt_whole", {})["decoder"], run.decoder);
+}
+
 TEST_F(RefineRun, BadInputIsReported) {
   auto same = options("x", 5);
   same.out = same.run;

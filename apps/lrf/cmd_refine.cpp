@@ -32,6 +32,10 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   cmd->add_option("--lr-final", o->lr_final,
                   "Every learning rate decays log-linearly to this fraction of itself by the last step (1 = constant)")
       ->capture_default_str();
+  cmd->add_option("--decoder-lr", o->decoder_lr,
+                  "Also adapt the decoder to this scene's training views, with Adam at this rate (0 = frozen); the "
+                  "adapted decoder is written to OUT/decoder.safetensors and decodes the refined field")
+      ->capture_default_str();
   cmd->add_option("--lambda-ssim", o->lambda_ssim, "Weight of the D-SSIM term of the image loss")->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the view order and window positions")->capture_default_str();
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")->capture_default_str();

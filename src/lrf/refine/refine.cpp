@@ -1,6 +1,7 @@
 #include "lrf/refine/refine.h"
 
 #include <filesystem>
+#include <memory>
 
 #include <torch/torch.h>
 
@@ -10,6 +11,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
+#include "lrf/finetune/adam_checkpoint.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
@@ -35,6 +37,7 @@ void check_options(const RefineOptions& o) {
   if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
   if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
+  if (!(o.decoder_lr >= 0)) fail("refine: --decoder-lr must be 0 (frozen decoder) or positive");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail("refine: --lambda-ssim must be in [0, 1]");
 }
 
@@ -50,7 +53,8 @@ uint64_t window_seed(uint64_t seed, int64_t step) {
 nlohmann::json refine_options_json(const RefineOptions& o) {
   return {{"run", o.run},         {"out", o.out},           {"decoder", o.decoder},
           {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
-          {"position_lr", o.position_lr}, {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim}, {"seed", o.seed},
+          {"position_lr", o.position_lr}, {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
+          {"decoder_lr", o.decoder_lr}, {"seed", o.seed},
           {"checkpoint_every", o.checkpoint_every}, {"resume", o.resume}, {"force", o.force}};
 }
 
@@ -82,7 +86,12 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   const std::string decoder = o.decoder.empty() ? src.decoder : o.decoder;
   auto ae = load_autoencoder(src.autoencoder, src.encoder, decoder);
   ae->set_encoder_trainable(false);
-  ae->set_decoder_trainable(false);
+  ae->set_decoder_trainable(o.decoder_lr > 0);
+  // An adapted decoder is this run's own, written beside the field at every checkpoint.
+  const std::string adapted = fs::absolute(fs::path(o.out) / "decoder.safetensors").lexically_normal().string();
+  const std::string adapted_checkpoint = (fs::path(o.out) / "decoder.checkpoint.safetensors").string();
+  std::unique_ptr<ParamAdam> decoder_adam;
+  if (o.decoder_lr > 0) decoder_adam = std::make_unique<ParamAdam>(ae->decoder_parameters(), AdamOptions{o.decoder_lr});
   const int reach = ae->decode_local_reach();
 
   // Training views: latent cameras, with the full-resolution images as what the objective compares with.
@@ -128,10 +137,21 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   };
   const double extent = src.config.value("extent", src.scene.camera_extent());
 
+  if (decoder_adam) {
+    to.after_backward = [&](int64_t) {
+      decoder_adam->step();
+      decoder_adam->zero_grad();
+    };
+  }
   nlohmann::json config = src.config;
   config.erase("result");
   config["decoder"] = decoder;
   config["decoder_identity"] = decoder.empty() ? std::string() : weights_file_identity(decoder);
+  if (decoder_adam) {
+    config["decoder"] = adapted;
+    config["decoder_identity"] = "";  // set when the adapted decoder is final
+    config["refine_source_decoder"] = decoder;
+  }
   config["refine"] = run_record(refine_options_json(o));
   config["refine"]["refined_from"] = canonical(o.run);
   config["refine"]["resume_key"] = refine_resume_key(o);
@@ -145,7 +165,19 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   ro.checkpoint_every = o.checkpoint_every;
   ro.log_every = 10;
   ro.task = "refine";
+  if (decoder_adam) {
+    ro.save_extra = [&] {
+      decoder_adam->save(adapted_checkpoint, {{"lrf_kind", "refine-decoder"}, {"lrf_resume_key", refine_resume_key(o).dump()}});
+      ae->save_decoder(adapted);
+    };
+    ro.load_extra = [&] {
+      const auto meta = decoder_adam->load(adapted_checkpoint);
+      if (meta.count("lrf_resume_key") == 0 || meta.at("lrf_resume_key") != refine_resume_key(o).dump())
+        fail(adapted_checkpoint, "was written by another refinement (other options)");
+    };
+  }
   auto summary = run_training(trainer, ro);
+  if (decoder_adam) config["decoder_identity"] = weights_file_identity(adapted);
 
   const nlohmann::json source_result = src.config.value("result", nlohmann::json::object());
   const double stage2_seconds = source_result.value("seconds", 0.0);

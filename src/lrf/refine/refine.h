@@ -8,7 +8,8 @@
 //
 // OUT is a latent run like any other (config.json, point_cloud.ply, checkpoint.pt, train_log.csv): it
 // records the run it started from and the decoder it was refined through, which `lrf eval` / `render`
-// then decode with unless told otherwise. Randomness (view order, windows) comes from (seed, step), so a
+// then decode with unless told otherwise. Optionally the decoder adapts to the scene too (only ever on
+// its training views): then OUT/decoder.safetensors is that decoder. Randomness (view order, windows) comes from (seed, step), so a
 // resumed run ends where an uninterrupted one does.
 #include <cstdint>
 #include <string>
@@ -28,6 +29,9 @@ struct RefineOptions {
   double position_lr = 1.6e-6;  // of the means, x the scene extent (Stage II's final rate)
   double lr_final = 1;          // every rate decays log-linearly to this fraction of itself by the last step
   double lambda_ssim = 0.2;
+  // > 0: the decoder is adapted to this scene with the field (Adam at this rate, on the same training
+  // views); it is saved as OUT/decoder.safetensors and becomes the run's decoder. 0: frozen decoder.
+  double decoder_lr = 0;
   uint64_t seed = 0;
   int64_t checkpoint_every = 500;
   bool resume = false, force = false;

@@ -12,7 +12,6 @@
 #include "lrf/core/state_dict.h"
 #include "lrf/eval/lpips.h"
 #include "lrf/eval/scores.h"
-#include "lrf/latent/latent_field.h"
 #include "lrf/rgb/rgb_field.h"
 #include "lrf/splat/render_field.h"
 #include "lrf/splat/run/run_folder.h"
@@ -37,7 +36,10 @@ void train_rgb_baseline(const RgbBaselineOptions& o) {
   std::vector<TrainView> views;
   for (int i : scene.train_indices) {
     const View& v = scene.views[static_cast<size_t>(i)];
-    Camera cam = o.factor == 1 ? v.camera : latent_camera(v.camera, o.factor);
+    // The views are cropped to multiples of 8, so any factor up to 8 that divides them keeps the intrinsics exact.
+    if (v.camera.width % o.factor || v.camera.height % o.factor)
+      fail(v.image_path, "the view's size is not a multiple of the downscale factor " + std::to_string(o.factor));
+    Camera cam = v.camera.resized(v.camera.width / o.factor, v.camera.height / o.factor);
     cv::Mat image = scene.load_image(i);
     if (o.factor != 1) image = resize_area(image, cam.width, cam.height);
     views.push_back({v.name, cam, splat::image_to_tensor(image)});

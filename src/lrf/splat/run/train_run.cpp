@@ -64,6 +64,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   double elapsed_before = 0;
   if (o.resume) {
     trainer.load_checkpoint(ckpt);
+    if (o.load_extra) o.load_extra();
     log_rows = log_rows_until(log_path, trainer.steps_done());
     if (!log_rows.empty()) {
       auto last = log_rows.substr(log_rows.rfind('\n', log_rows.size() - 2) + 1);
@@ -84,6 +85,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   auto save = [&]() {
     write_file_atomic(log_path, kLogHeader + log_rows);
     trainer.save_checkpoint(ckpt);
+    if (o.save_extra) o.save_extra();
     write_ply(ply_path, trainer.export_gaussians());
   };
 
@@ -129,6 +131,8 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
     log_error(e.what());
     if (fs::exists(ckpt)) {
       trainer.load_checkpoint(ckpt);
+      if (o.load_extra) o.load_extra();
+      if (o.save_extra) o.save_extra();
       write_ply(ply_path, trainer.export_gaussians());
       log_error("kept the last good checkpoint (step " + std::to_string(trainer.steps_done()) + ") and wrote " +
                 ply_path + " from it");

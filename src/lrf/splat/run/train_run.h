@@ -6,6 +6,7 @@
 // Folder layout: OUT/config.json (written by the caller), OUT/checkpoint.pt, OUT/train_log.csv,
 // OUT/point_cloud.ply (refreshed at every checkpoint; config.json gains a "result" when the run ends).
 #include <cstdint>
+#include <functional>
 #include <string>
 
 #include "lrf/core/folder_lock.h"
@@ -26,6 +27,9 @@ struct RunOptions {
   int64_t checkpoint_every = 1000;
   int64_t log_every = 10;  // rows of train_log.csv (mean loss over the rows' steps)
   std::string task = "train";
+  // State kept beside the trainer's (e.g. a decoder trained with the field): written with every checkpoint
+  // and at the end, read back on resume and when a divergence falls back to the last checkpoint.
+  std::function<void()> save_extra, load_extra;
 };
 
 struct RunSummary {

@@ -124,6 +124,7 @@ StepResult Trainer::step() {
 
   t0 = Clock::now();
   loss.backward();
+  if (options_.after_backward) options_.after_backward(step);
   r.timings.backward = ms_since(t0);
 
   t0 = Clock::now();

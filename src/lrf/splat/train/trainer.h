@@ -52,6 +52,9 @@ struct TrainerOptions {
   bool sparse_adam = false;  // skip Adam on rows without gradient (see GaussianAdam::sparse)
   int psnr_every = 10;  // StepResult::psnr on the training view every this many steps (0 = never)
   Objective objective;  // empty: photometric_loss(render, view.target, lambda_ssim)
+  // Called with the 1-based step right after the backward pass, before the Gaussians' Adam step: an
+  // objective with parameters of its own (a decoder adapted with the field) updates them here.
+  std::function<void(int64_t step)> after_backward;
 };
 
 // Where a step's time went, in milliseconds.
