@@ -1,17 +1,14 @@
 #include "lrf/latent/latent_cache.h"
 
-#include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <sstream>
-#include <vector>
 
 #include <ATen/ATen.h>
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/resolve.h"
+#include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -20,58 +17,6 @@
 namespace fs = std::filesystem;
 
 namespace lrf {
-namespace {
-
-// FNV-1a: a stable 64-bit hash across builds and runs (std::hash promises neither).
-uint64_t fnv1a(const std::string& s) {
-  uint64_t h = 1469598103934665603ull;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
-std::string file_stamp(const std::string& path) {
-  std::error_code ec;
-  auto size = fs::file_size(path, ec);
-  auto time = fs::last_write_time(path, ec).time_since_epoch().count();
-  std::ostringstream s;
-  s << fs::absolute(path).lexically_normal().string() << ":" << (ec ? 0 : size) << ":" << (ec ? 0 : time);
-  return s.str();
-}
-
-// Weights are named by their content, not their path or time: a copy or a fresh download of the same
-// file keeps every run and cache made with it valid, and an edited file of the same size does not.
-std::string content_stamp(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, "cannot read the weights file");
-  uint64_t h = 1469598103934665603ull;
-  uint64_t size = 0;
-  std::vector<char> block(1 << 16);
-  while (in) {
-    in.read(block.data(), static_cast<std::streamsize>(block.size()));
-    const auto n = static_cast<size_t>(in.gcount());
-    for (size_t i = 0; i < n; ++i) {
-      h ^= static_cast<unsigned char>(block[i]);
-      h *= 1099511628211ull;
-    }
-    size += n;
-  }
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
-  return fs::path(path).filename().string() + ":" + std::to_string(size) + ":" + hex;
-}
-
-}  // namespace
-
-std::string default_cache_dir() {
-  if (const char* c = std::getenv("LRF_CACHE"); c && *c) return c;
-  if (const char* x = std::getenv("XDG_CACHE_HOME"); x && *x) return (fs::path(x) / "lrf").string();
-  if (const char* h = std::getenv("HOME"); h && *h) return (fs::path(h) / ".cache" / "lrf").string();
-  return ".lrf-cache";
-}
-
 std::string autoencoder_identity(const std::string& name_or_path, const std::string& encoder_override) {
   AutoencoderFiles files = resolve_autoencoder(name_or_path);
   std::string id = "encoder=" + content_stamp(files.encoder) + ";decoder=" + content_stamp(files.decoder);
@@ -95,9 +40,7 @@ LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>
         << "+" << v.crop_x << "," << v.crop_y << "/" << v.resize_width << "x" << v.resize_height;
   }
   LatentCacheResult result;
-  char name[32];
-  std::snprintf(name, sizeof name, "%016llx.safetensors", static_cast<unsigned long long>(fnv1a(key.str())));
-  if (!cache_dir.empty()) result.path = (fs::path(cache_dir) / "latents" / name).string();
+  if (!cache_dir.empty()) result.path = (fs::path(cache_dir) / "latents" / (hash_hex(key.str()) + ".safetensors")).string();
 
   if (!result.path.empty() && fs::exists(result.path)) {
     try {

@@ -10,12 +10,10 @@
 #include <torch/types.h>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/core/cache_key.h"  // default_cache_dir()
 #include "lrf/scene/scene.h"
 
 namespace lrf {
-
-// $LRF_CACHE, else $XDG_CACHE_HOME/lrf, else ~/.cache/lrf, else ./.lrf-cache.
-std::string default_cache_dir();
 
 // A stable description of the files an autoencoder was loaded from (for cache keys and run records).
 std::string autoencoder_identity(const std::string& name_or_path, const std::string& encoder_override);
