@@ -176,7 +176,7 @@ std::vector<ColmapPoint> parse_points_bin(const std::string& bytes, const std::s
     p.id = static_cast<int64_t>(r.read<uint64_t>());
     for (int k = 0; k < 3; ++k) p.xyz[k] = r.read<double>();
     for (int k = 0; k < 3; ++k) p.rgb[k] = r.read<uint8_t>() / 255.0f;
-    r.read<double>();  // reprojection error
+    p.error = r.read<double>();
     uint64_t track = r.read<uint64_t>();
     r.require_records(track, 8, "track elements");
     for (uint64_t k = 0; k < track; ++k) {
@@ -196,6 +196,7 @@ std::vector<ColmapPoint> parse_points_txt(const std::string& bytes, const std::s
     int r, g, b;
     if (!(s >> p.id >> p.xyz[0] >> p.xyz[1] >> p.xyz[2] >> r >> g >> b)) fail(path, "malformed point line: " + line);
     p.rgb = Eigen::Vector3f(r, g, b) / 255.0f;
+    if (!(s >> p.error)) p.error = 0;
     points.push_back(p);
   }
   return points;
@@ -247,8 +248,47 @@ ColmapModel read_colmap_model(const std::string& dir) {
   return model;
 }
 
+namespace {
+
+template <typename T>
+void put(std::string* out, T v) {
+  out->append(reinterpret_cast<const char*>(&v), sizeof v);
+}
+
+uint8_t colour_byte(float v) { return static_cast<uint8_t>(std::lround(std::clamp(v, 0.f, 1.f) * 255.f)); }
+
+std::string points_text(const std::vector<ColmapPoint>& points) {
+  std::ostringstream p;
+  p << std::setprecision(17) << "# POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[]\n";
+  for (const auto& pt : points) {
+    p << pt.id << " " << pt.xyz.x() << " " << pt.xyz.y() << " " << pt.xyz.z();
+    for (int k = 0; k < 3; ++k) p << " " << int(colour_byte(pt.rgb[k]));
+    p << " " << pt.error << "\n";
+  }
+  return p.str();
+}
+
+std::string points_binary(const std::vector<ColmapPoint>& points) {
+  std::string p;
+  put<uint64_t>(&p, points.size());
+  for (const auto& pt : points) {
+    put<uint64_t>(&p, static_cast<uint64_t>(pt.id));
+    for (int k = 0; k < 3; ++k) put<double>(&p, pt.xyz[k]);
+    for (int k = 0; k < 3; ++k) put<uint8_t>(&p, colour_byte(pt.rgb[k]));
+    put<double>(&p, pt.error);
+    put<uint64_t>(&p, 0);  // track length
+  }
+  return p;
+}
+
+}  // namespace
+
+void write_colmap_points(const std::string& path, const std::vector<ColmapPoint>& points) {
+  write_file_atomic(path, ends_with(path, ".txt") ? points_text(points) : points_binary(points));
+}
+
 void write_colmap_text(const std::string& dir, const ColmapModel& model) {
-  std::ostringstream c, i, p;
+  std::ostringstream c, i;
   c << std::setprecision(17) << "# Camera list: CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n";
   for (const auto& [id, cam] : model.cameras) {
     c << id << " " << cam.model << " " << cam.width << " " << cam.height;
@@ -266,23 +306,10 @@ void write_colmap_text(const std::string& dir, const ColmapModel& model) {
     }
     i << "\n";
   }
-  p << std::setprecision(17) << "# POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[]\n";
-  for (const auto& pt : model.points) {
-    p << pt.id << " " << pt.xyz.x() << " " << pt.xyz.y() << " " << pt.xyz.z();
-    for (int k = 0; k < 3; ++k) p << " " << std::lround(std::clamp(pt.rgb[k], 0.f, 1.f) * 255.f);
-    p << " 0\n";
-  }
   write_file_atomic((fs::path(dir) / "cameras.txt").string(), c.str());
   write_file_atomic((fs::path(dir) / "images.txt").string(), i.str());
-  write_file_atomic((fs::path(dir) / "points3D.txt").string(), p.str());
+  write_file_atomic((fs::path(dir) / "points3D.txt").string(), points_text(model.points));
 }
-
-namespace {
-template <typename T>
-void put(std::string* out, T v) {
-  out->append(reinterpret_cast<const char*>(&v), sizeof v);
-}
-}  // namespace
 
 void write_colmap_binary(const std::string& dir, const ColmapModel& model) {
   std::string c, i, p;
@@ -311,14 +338,7 @@ void write_colmap_binary(const std::string& dir, const ColmapModel& model) {
       put<int64_t>(&i, im.point3d_ids[k]);
     }
   }
-  put<uint64_t>(&p, model.points.size());
-  for (const auto& pt : model.points) {
-    put<uint64_t>(&p, static_cast<uint64_t>(pt.id));
-    for (int k = 0; k < 3; ++k) put<double>(&p, pt.xyz[k]);
-    for (int k = 0; k < 3; ++k) put<uint8_t>(&p, static_cast<uint8_t>(std::lround(std::clamp(pt.rgb[k], 0.f, 1.f) * 255.f)));
-    put<double>(&p, 0.0);
-    put<uint64_t>(&p, 0);
-  }
+  p = points_binary(model.points);
   write_file_atomic((fs::path(dir) / "cameras.bin").string(), c);
   write_file_atomic((fs::path(dir) / "images.bin").string(), i);
   write_file_atomic((fs::path(dir) / "points3D.bin").string(), p);

@@ -34,6 +34,7 @@ struct ColmapPoint {
   int64_t id = 0;
   Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
   Eigen::Vector3f rgb = Eigen::Vector3f::Zero();  // [0, 1]
+  double error = 0;  // mean reprojection error in pixels, as COLMAP records it
 };
 
 struct ColmapModel {
@@ -55,6 +56,9 @@ std::vector<ColmapPoint> parse_colmap_points(const std::string& bytes, const std
 // Writes the text / binary formats (the synthetic scene, tests and fuzz seeds); points without tracks.
 void write_colmap_text(const std::string& dir, const ColmapModel& model);
 void write_colmap_binary(const std::string& dir, const ColmapModel& model);
+// Writes a points3D file alone (text if `path` ends in .txt, else binary), atomically; without tracks,
+// since there is no images file for them to refer to.
+void write_colmap_points(const std::string& path, const std::vector<ColmapPoint>& points);
 
 // Pinhole intrinsics (at the camera's own width/height) and distortion for a COLMAP camera model.
 // Throws for models lrf cannot undistort (FOV, THIN_PRISM_FISHEYE) or wrong parameter counts.

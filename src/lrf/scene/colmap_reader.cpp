@@ -18,6 +18,14 @@ std::string find_sparse_dir(const std::string& root) {
   return "";
 }
 
+std::string colmap_points_path(const std::string& sparse_dir) {
+  for (const char* name : {"points3D.bin", "points3D.txt"}) {
+    fs::path p = fs::path(sparse_dir) / name;
+    if (fs::exists(p)) return p.string();
+  }
+  return "";
+}
+
 RawScene read_colmap_scene(const std::string& root) {
   std::string dir = find_sparse_dir(root);
   if (dir.empty()) fail(root, "no COLMAP model (sparse/0/cameras.bin or .txt)");
@@ -27,6 +35,7 @@ RawScene read_colmap_scene(const std::string& root) {
   RawScene raw;
   raw.format = "colmap";
   for (const auto& p : model.points) raw.points.push_back({p.xyz, p.rgb, p.id});
+  raw.points_file = colmap_points_path(dir);
   std::unordered_map<int64_t, bool> known_point;
   for (const auto& p : model.points) known_point[p.id] = true;
 

@@ -48,6 +48,7 @@ RawScene read_llff_scene(const std::string& root, const std::string& images_dir)
     model_images.clear();
   }
   for (const auto& p : model.points) raw.points.push_back({p.xyz, p.rgb, p.id});
+  if (!sparse.empty()) raw.points_file = colmap_points_path(sparse);
 
   for (int64_t i = 0; i < rows; ++i) {
     const double* r = &a.data[i * 17];

@@ -23,12 +23,15 @@ struct RawScene {
   std::string images_dir = "images";  // folder (relative to root) that image_rel starts with
   std::vector<RawView> views;
   std::vector<SfmPoint> points;
+  std::string points_file;  // where `points` come from ("" if none)
   bool has_tracks = false;
   std::vector<std::string> predefined_test;  // names of test views when the format defines a split
   bool images_listed_by_order = false;       // LLFF: files in the chosen folder are matched by sorted order
 };
 
 RawScene read_colmap_scene(const std::string& root);
+// The points3D file of a COLMAP model folder (.bin preferred, as read_colmap_model does); "" if none.
+std::string colmap_points_path(const std::string& sparse_dir);
 RawScene read_llff_scene(const std::string& root, const std::string& images_dir);
 RawScene read_nerf_scene(const std::string& root);
 

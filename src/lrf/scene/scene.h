@@ -57,6 +57,7 @@ class Scene {
   std::vector<int> train_indices;
   std::vector<int> test_indices;
   std::vector<SfmPoint> points;
+  std::string points_file;  // the file `points` were read from ("" when the scene has none)
   bool has_tracks = false;
 
   // Decodes view i as RGB float32 in [0, 1] (CV_32FC3), resized, undistorted and cropped.

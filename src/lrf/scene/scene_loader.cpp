@@ -153,6 +153,7 @@ Scene load_scene(const std::string& root, const SceneOptions& o) {
   scene.root = root;
   scene.format = raw.format;
   scene.points = raw.points;
+  if (!raw.points.empty()) scene.points_file = raw.points_file;
   scene.has_tracks = raw.has_tracks;
 
   // The chosen folder's scale relative to the nominal resolution, measured on the first image; every
