@@ -34,6 +34,9 @@ struct MatchOptions {
   double ransac_threshold_px = 1.0;
   int max_features = 8000;
   bool training_views_only = false;  // only pairs of training views (their test views stay unseen)
+  // Pairs to match, as scene view indices (i < j); empty: the sequential + quadratic pairs above. Known
+  // poses can say which views overlap (see points/view_pairs.h).
+  std::vector<std::pair<int, int>> pairs;
 };
 
 // An empty set describing `scene`'s views (names and sizes), for a source to fill.

@@ -1,6 +1,8 @@
 // lrf's own matcher: SIFT features, Lowe's ratio test both ways (mutual), RANSAC on the fundamental
 // matrix, pairs kept with >= min_inliers and an inlier ratio >= min_inlier_ratio, over COLMAP-style
-// sequential + quadratic pairs.
+// sequential + quadratic pairs or the pairs the caller gives.
+#include <algorithm>
+
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -48,7 +50,18 @@ CorrespondenceSet correspondences_from_matching(const Scene& scene, const MatchO
     sift->detectAndCompute(gray, cv::noArray(), feats[k].keypoints, feats[k].descriptors);
     progress.update(static_cast<long>(k + 1));
   }
-  auto pairs = sequential_pairs(static_cast<int>(ids.size()), o.sequential_overlap, o.quadratic_overlap);
+  std::vector<std::pair<int, int>> pairs;  // positions in ids
+  if (o.pairs.empty()) {
+    pairs = sequential_pairs(static_cast<int>(ids.size()), o.sequential_overlap, o.quadratic_overlap);
+  } else {
+    std::vector<int> position(scene.views.size(), -1);
+    for (size_t k = 0; k < ids.size(); ++k) position[static_cast<size_t>(ids[k])] = static_cast<int>(k);
+    for (auto [i, j] : o.pairs) {
+      if (i < 0 || j < 0 || i >= static_cast<int>(position.size()) || j >= static_cast<int>(position.size()) || i == j)
+        fail(scene.root, "view pair (" + std::to_string(i) + ", " + std::to_string(j) + ") out of range");
+      if (position[i] >= 0 && position[j] >= 0) pairs.emplace_back(std::min(position[i], position[j]), std::max(position[i], position[j]));
+    }
+  }
   Progress match_progress("match", static_cast<long>(pairs.size()));
   long done = 0;
   for (auto [a, b] : pairs) {
