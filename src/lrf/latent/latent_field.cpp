@@ -23,7 +23,8 @@ LatentInit parse_latent_init(const std::string& name) {
 }
 
 LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,
-                                           LatentInit init, int sh_degree, uint64_t seed) {
+                                           LatentInit init, int sh_degree, uint64_t seed,
+                                           const InitPointsOptions& points) {
   if (train_latents.size() != scene.train_indices.size()) fail("one latent per training view expected");
   LatentTrainingData data;
   data.range = compute_latent_range(train_latents);
@@ -38,13 +39,15 @@ LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector
   }
   const int channels = data.range.channels();
   torch::Tensor xyz, features;
-  if (!scene.points.empty()) {
-    const int64_t n = static_cast<int64_t>(scene.points.size());
+  const InitialPoints initial = choose_initial_points(scene, points);
+  data.init_points = initial.record;
+  if (!initial.points.empty()) {
+    const int64_t n = static_cast<int64_t>(initial.points.size());
     xyz = torch::empty({n, 3}, torch::kFloat32);
     auto rgb = torch::empty({n, 3}, torch::kFloat32);
     std::vector<Eigen::Vector3d> pts;
     for (int64_t i = 0; i < n; ++i) {
-      const auto& p = scene.points[static_cast<size_t>(i)];
+      const auto& p = initial.points[static_cast<size_t>(i)];
       pts.push_back(p.xyz);
       for (int a = 0; a < 3; ++a) {
         xyz[i][a] = static_cast<float>(p.xyz[a]);
@@ -53,16 +56,16 @@ LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector
     }
     if (init == LatentInit::latents) {
       features = sample_latents_at_points(cameras, normalised, pts);
-      data.init_description = std::to_string(n) + " SfM points, features sampled from the training latents";
+      data.init_description = initial.description + ", features sampled from the training latents";
     } else {
       features = rgb_into_first_channels(rgb, channels);
-      data.init_description = std::to_string(n) + " SfM points, RGB in the first latent channels (paper code)";
+      data.init_description = initial.description + ", RGB in the first latent channels (paper code)";
     }
   } else {
     xyz = splat::random_points(splat::kRandomInitPoints, scene.camera_mean(), scene.camera_extent(), seed);
     auto gen = at::make_generator<at::CPUGeneratorImpl>(seed + 1);
     features = at::rand({splat::kRandomInitPoints, channels}, gen, torch::kFloat32);
-    data.init_description = std::to_string(splat::kRandomInitPoints) + " random points (no SfM points)";
+    data.init_description = std::to_string(splat::kRandomInitPoints) + " " + initial.description;
   }
   data.init = splat::gaussians_from_points(xyz, features, sh_degree);
   return data;

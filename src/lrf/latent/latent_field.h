@@ -11,6 +11,7 @@
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/latent/latent_normalization.h"
+#include "lrf/points/initial_points.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/train/trainer.h"
@@ -28,11 +29,14 @@ struct LatentTrainingData {
   LatentRange range;
   splat::Gaussians init;
   std::string init_description;
+  nlohmann::json init_points;  // where the initial points came from (InitialPoints::record), for config.json
 };
 
-// Builds the training views and the starting field from the training views' raw latents.
+// Builds the training views and the starting field from the training views' raw latents, on the points
+// that choose_initial_points picks with `points` (default: the process-wide options).
 LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,
-                                           LatentInit init, int sh_degree, uint64_t seed);
+                                           LatentInit init, int sh_degree, uint64_t seed,
+                                           const InitPointsOptions& points = default_init_points());
 
 // Decodes a normalised latent [C, h, w] from a field: denormalise (clamped) then decode -> [3, 8h, 8w].
 torch::Tensor decode_normalised(Autoencoder& ae, const LatentRange& range, const torch::Tensor& normalised);

@@ -80,6 +80,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   config["latent_channels"] = ae->latent_channels();
   config["latent_range"] = data.range.to_json();
   config["init"] = o.init;
+  config["init_points"] = data.init_points;
   const std::string config_path = (fs::path(o.out) / "config.json").string();
   write_json_file(config_path, config);
 

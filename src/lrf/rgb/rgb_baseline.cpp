@@ -62,7 +62,11 @@ void train_rgb_baseline(const RgbBaselineOptions& o) {
   config["train_resolution"] = {views.front().camera.width, views.front().camera.height};
   const std::string config_path = (fs::path(out) / "config.json").string();
   write_json_file(config_path, config);
-  Trainer trainer(std::move(views), init_rgb_field(scene, 3, seed), extent, to);
+  nlohmann::json init_points;
+  auto init = init_rgb_field(scene, 3, seed, &init_points);
+  config["init_points"] = init_points;
+  write_json_file(config_path, config);
+  Trainer trainer(std::move(views), std::move(init), extent, to);
   RunOptions ro;
   ro.out = out;
   ro.resume = o.resume;

@@ -3,6 +3,7 @@
 #include <ATen/CPUGeneratorImpl.h>
 
 #include "lrf/core/error.h"
+#include "lrf/core/log.h"
 
 namespace lrf::splat {
 
@@ -32,17 +33,25 @@ std::vector<TrainView> rgb_views(const Scene& scene, const std::vector<int>& ind
   return views;
 }
 
-Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed) {
-  if (!scene.points.empty()) {
-    const int64_t n = static_cast<int64_t>(scene.points.size());
+Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, nlohmann::json* origin) {
+  return init_rgb_field(scene, max_sh_degree, seed, default_init_points(), origin);
+}
+
+Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, const InitPointsOptions& options,
+                         nlohmann::json* origin) {
+  const InitialPoints init = choose_initial_points(scene, options);
+  log_info("initial points: " + init.description);
+  if (origin) *origin = init.record;
+  if (!init.points.empty()) {
+    const int64_t n = static_cast<int64_t>(init.points.size());
     auto xyz = torch::empty({n, 3}, torch::kFloat32);
     auto rgb = torch::empty({n, 3}, torch::kFloat32);
     auto px = xyz.accessor<float, 2>();
     auto pc = rgb.accessor<float, 2>();
     for (int64_t i = 0; i < n; ++i)
       for (int a = 0; a < 3; ++a) {
-        px[i][a] = static_cast<float>(scene.points[static_cast<size_t>(i)].xyz[a]);
-        pc[i][a] = scene.points[static_cast<size_t>(i)].rgb[a];
+        px[i][a] = static_cast<float>(init.points[static_cast<size_t>(i)].xyz[a]);
+        pc[i][a] = init.points[static_cast<size_t>(i)].rgb[a];
       }
     return gaussians_from_points(xyz, rgb, max_sh_degree);
   }

@@ -1,10 +1,14 @@
 #pragma once
 // RGB as a user of the generic trainer: scene images as [3, H, W] targets, and the starting field
-// from the scene's SfM points (their colours) or, without points, random points around the cameras.
+// from the points choose_initial_points picks (the scene's SfM points, triangulated ones, a file; with
+// their colours) or random points around the cameras.
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <torch/types.h>
+
+#include "lrf/points/initial_points.h"
 
 #include "lrf/scene/scene.h"
 #include "lrf/splat/gaussians.h"
@@ -21,6 +25,10 @@ std::vector<TrainView> rgb_views(const Scene& scene, const std::vector<int>& ind
 // Random initialisation: this many points, uniform in a cube around the cameras' mean whose half-size
 // is the scene extent (cameras' spread), with random colours.
 constexpr int64_t kRandomInitPoints = 100000;
-Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed);
+// With the process-wide point options (default_init_points()) unless given others. `origin`, when given,
+// receives InitialPoints::record (where the points came from) for the run's config.json.
+Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, nlohmann::json* origin = nullptr);
+Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, const InitPointsOptions& points,
+                         nlohmann::json* origin);
 
 }  // namespace lrf::splat
