@@ -6,6 +6,7 @@
 
 #include "command.h"
 #include "lrf/core/log.h"
+#include "lrf/points/initial_points.h"
 #include "lrf/scene/reprojection.h"
 #include "lrf/scene/scene.h"
 #include "lrf/scene/synthetic_scene.h"
@@ -26,6 +27,10 @@ nlohmann::json describe(const lrf::Scene& s) {
           {"height", c.height},          {"fx", c.fx},                  {"fy", c.fy},
           {"cx", c.cx},                  {"cy", c.cy},                  {"points", s.points.size()},
           {"tracks", s.has_tracks},      {"extent", s.camera_extent()}};
+  // Where a field trained on this scene at this resolution would take its initial points from.
+  lrf::InitialPoints init = lrf::describe_initial_points(s, lrf::InitPointsOptions{});
+  j["points_source"] = init.source;
+  j["points_from"] = init.description;
   if (s.has_tracks) {
     lrf::ReprojectionStats r = lrf::reprojection_error(s);
     j["observations"] = r.observations;
@@ -47,8 +52,9 @@ int run_info(const InfoOptions& o) {
   std::printf("resolution %dx%d (first view)\nintrinsics fx %.3f fy %.3f cx %.3f cy %.3f\n", s.views[0].camera.width,
               s.views[0].camera.height, s.views[0].camera.fx, s.views[0].camera.fy, s.views[0].camera.cx,
               s.views[0].camera.cy);
-  std::printf("points     %zu\ntracks     %s\nextent     %.4f\n", s.points.size(), s.has_tracks ? "yes" : "no",
-              s.camera_extent());
+  std::printf("points     %zu\ninit from  %s: %s\ntracks     %s\nextent     %.4f\n", s.points.size(),
+              j["points_source"].get<std::string>().c_str(), j["points_from"].get<std::string>().c_str(),
+              s.has_tracks ? "yes" : "no", s.camera_extent());
   if (s.has_tracks) {
     std::printf("reprojection median %.4f px, mean %.4f px over %zu observations\n",
                 j["reprojection_median_px"].get<double>(), j["reprojection_mean_px"].get<double>(),
@@ -69,8 +75,10 @@ lrf::cli::CommandRegistration reg(10, [](CLI::App& root) {
   info->add_option("scene", io->scene, "Scene folder")->required();
   lrf::cli::add_scene_options(info, &io->scene_options);
   info->add_flag("--json", io->json, "Print one JSON object (keys: format, views, train, test, test_indices, "
-                                     "width, height, fx, fy, cx, cy, points, tracks, extent, and with tracks "
-                                     "observations, reprojection_median_px, reprojection_mean_px)");
+                                     "width, height, fx, fy, cx, cy, points, points_source (file, triangulated or "
+                                     "random: where lrf train would take its initial points from at these scene "
+                                     "options), points_from, tracks, extent, and with tracks observations, "
+                                     "reprojection_median_px, reprojection_mean_px)");
   lrf::cli::on_run(info, [io] { return run_info(*io); });
 
   auto* synth = scene->add_subcommand("synth", "Render the built-in synthetic scene (COLMAP text format, with "

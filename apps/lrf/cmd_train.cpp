@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "init_points_options.h"
 #include "scene_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
@@ -37,6 +38,7 @@ struct TrainOptions {
   std::string encoder;
   std::string init = "latents";
   std::string cache_dir;
+  lrf::InitPointsOptions init_points;
 };
 
 int run_train_latent(const TrainOptions& o) {
@@ -74,7 +76,9 @@ nlohmann::json to_json(const TrainOptions& o) {
           {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
           {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
           {"checkpoint_every", o.checkpoint_every},
-          {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background}};
+          {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background},
+          {"init_points", o.init_points.mode}, {"far_shell", o.init_points.shell.points},
+          {"far_shell_radius", o.init_points.shell.radius_factor}};
 }
 
 // --resume continues the run as it was started: every setting comes from OUT/config.json except the
@@ -113,6 +117,15 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
   } catch (const nlohmann::json::exception& e) {
     lrf::fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
   }
+  // Where the initial points came from (recorded by every run since they could be chosen): the resumed
+  // run builds the same starting field before its checkpoint replaces it, and records the same origin.
+  if (stored.contains("init_points") && stored["init_points"].is_object()) {
+    o.init_points.mode = stored["init_points"].value("mode", std::string("auto"));
+    if (stored["init_points"].contains("far_shell")) {
+      o.init_points.shell.points = stored["init_points"]["far_shell"].value("lattice_points", 0);
+      o.init_points.shell.radius_factor = stored["init_points"]["far_shell"].value("radius_factor", 2.0);
+    }
+  }
   if (given.scene != o.scene)
     lrf::log_warn("--resume: training on " + o.scene + " as recorded in " + path + " (not " + given.scene + ")");
   return o;
@@ -121,6 +134,9 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
 int run_train(const TrainOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
+  InitPointsOptions points = o.init_points;
+  if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
+  set_default_init_points(points);
   if (o.space == "latent") return run_train_latent(o);
   if (o.space != "rgb") fail("--space must be rgb or latent, got '" + o.space + "'");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
@@ -164,9 +180,12 @@ int run_train(const TrainOptions& o) {
   const std::string config_path = (std::filesystem::path(o.out) / "config.json").string();
   write_json_file(config_path, config);
 
-  auto init = init_rgb_field(scene, o.sh_degree, o.seed);
-  log_info(std::string("initial field: ") + std::to_string(init.size()) + " Gaussians from " +
-           (scene.points.empty() ? "random points" : "SfM points"));
+  nlohmann::json init_points;
+  auto init = init_rgb_field(scene, o.sh_degree, o.seed, &init_points);
+  config["init_points"] = init_points;
+  write_json_file(config_path, config);
+  log_info("initial field: " + std::to_string(init.size()) + " Gaussians from " +
+           init_points.value("source", std::string("?")) + " points");
   Trainer trainer(rgb_views(scene, scene.train_indices), std::move(init), extent, to);
   RunOptions ro;
   ro.out = o.out;
@@ -199,10 +218,11 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                                      "SfM points' projections) or rgb (the paper code's RGB-in-first-channels)")
       ->check(CLI::IsMember({"latents", "rgb"}))
       ->capture_default_str();
-  cmd->add_option("--cache-dir", o->cache_dir, "latent: where encoded views are cached (default $LRF_CACHE or "
-                                               "~/.cache/lrf)");
+  cmd->add_option("--cache-dir", o->cache_dir, "Where encoded views (latent) and triangulated points are cached "
+                                               "(default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
   lrf::cli::add_scene_options(cmd, &o->scene_options);
+  lrf::cli::add_init_points_options(cmd, &o->init_points);
   auto* iters = cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
   cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3; default 3 for rgb, " +
                                                    std::to_string(lrf::kDefaultLatentShDegree) + " for latent)")
