@@ -120,9 +120,10 @@ TEST(SceneCli, InfoJsonHasTheDocumentedKeys) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   auto j = nlohmann::json::parse(r.output);
   for (const char* k : {"format", "views", "train", "test", "test_indices", "width", "height", "fx", "fy", "cx", "cy",
-                        "points", "tracks"}) {
+                        "points", "points_source", "points_from", "tracks"}) {
     EXPECT_TRUE(j.contains(k)) << k;
   }
+  EXPECT_EQ(j["points_source"], "file");  // fern's sparse/0/points3D.bin
   EXPECT_EQ(j["views"], 20);
   EXPECT_EQ(j["test_indices"], nlohmann::json({0, 8, 16}));
   EXPECT_NEAR(j["fx"].get<double>(), 407.566, 1e-3);
