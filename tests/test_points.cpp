@@ -28,8 +28,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// The synthetic scene without SfM points, large enough for SIFT: 12 views on a ring, 30 degrees apart.
-const lrf::SyntheticOptions kNoPoints{12, "192x144", 7, 0};
+// The synthetic scene without SfM points. Its periodic textures make SIFT matches scarce (see
+// test_correspondences.cpp): 48 views 7.5 degrees apart give ~300 points in ~8 s (12 views at 192x144 gave
+// one matched pair).
+const lrf::SyntheticOptions kNoPoints{48, "256x192", 7, 0};
 
 std::vector<lrf::Camera> ring_cameras() { return lrf::synthetic_cameras(kNoPoints); }
 
@@ -44,9 +46,9 @@ double percentile(std::vector<double> v, double q) {
   return v[static_cast<size_t>(q * (v.size() - 1))];
 }
 
-// Distance of x to the synthetic scene's surfaces, bounded from above: along the ray from each camera
-// that sees x, the surface hit is |t_hit - |x - c|| away from x; the smallest over the cameras. In pixels
-// of that camera at x's depth (distance * f / depth), so near and far points are judged alike.
+// Distance of x to the synthetic scene's surfaces along a viewing ray: from each camera that sees x, the
+// surface hit is |t_hit - |x - c|| away from x; the smallest over the cameras. In pixels of that camera at
+// x's depth (distance * f / depth), so near and far points are judged alike.
 double surface_distance_px(const std::vector<lrf::Camera>& cameras, const Eigen::Vector3d& x) {
   double best = std::numeric_limits<double>::infinity();
   for (const auto& c : cameras) {
@@ -136,32 +138,32 @@ TEST(Points, PosePairsJoinRingNeighbours) {
   auto pairs = lrf::overlapping_view_pairs(s, all, 2);
   auto has = [&](int a, int b) { return std::count(pairs.begin(), pairs.end(), std::make_pair(a, b)) == 1; };
   EXPECT_TRUE(has(0, 1));
-  EXPECT_TRUE(has(0, 11));  // the ring closes
-  EXPECT_FALSE(has(0, 6));  // opposite sides look at each other: not a neighbour
+  EXPECT_TRUE(has(0, 47));   // the ring closes
+  EXPECT_FALSE(has(0, 24));  // opposite sides look at each other: not a neighbour
 }
 
-// The points land on the scene's true surfaces. Bound: the median point within 0.5 px and 90 % within
-// 2 px of a surface (measured along a viewing ray, in pixels at the point's depth): SIFT keypoints are
-// localised to a fraction of a pixel, and every kept observation reprojects within --max-error 2 px, so a
-// point farther than that from the surface would have to be seen wrongly by all its 3+ views at once.
+// The points land on the scene's true surfaces. Along a viewing ray a point's error is its depth error,
+// which is its keypoints' error divided by sin(triangulation angle); times sin(angle) it is back in image
+// terms: the keypoints' localisation (median reprojection ~0.3 px here) times the ray's obliquity to the
+// surface (the ring sees the ground at ~25 degrees: up to ~2.5x). Bound: median under 1 px, 90 % under
+// 3 px (measured: 0.63 and 2.40; with exact observations the same code is exact to 1e-7). Phantom points
+// from the scene's periodic textures would be many pixels off.
 TEST(Points, SyntheticSceneIsTriangulatedOnItsSurfaces) {
   lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene(kNoPoints));
   ASSERT_TRUE(s.points.empty());
-  lrf::TriangulationOptions o;
-  o.neighbours = 4;
-  auto r = lrf::triangulate_scene(s, o);
-  EXPECT_GT(r.points.size(), 200u);
+  auto r = lrf::triangulate_scene(s, {});
+  EXPECT_GT(r.points.size(), 150u);
   EXPECT_LT(r.stats.median_error_px, 1.0);
   std::vector<lrf::Camera> cams;
   for (const auto& v : s.views) cams.push_back(v.camera);
   std::vector<double> d;
   for (const auto& p : r.points) {
-    d.push_back(surface_distance_px(cams, p.xyz));
+    d.push_back(surface_distance_px(cams, p.xyz) * std::sin(p.angle_deg * M_PI / 180));
     EXPECT_GE(p.track_length, 3);
     EXPECT_LE(p.error_px, 2.0);
   }
-  EXPECT_LT(percentile(d, 0.5), 0.5);
-  EXPECT_LT(percentile(d, 0.9), 2.0);
+  EXPECT_LT(percentile(d, 0.5), 1.0);
+  EXPECT_LT(percentile(d, 0.9), 3.0);
   // Colours come from the images: the scene is lit and textured, far from black on average.
   double mean = 0;
   for (const auto& p : r.points) mean += p.rgb.mean();
@@ -182,7 +184,7 @@ TEST(Points, NoMatchesIsAClearErrorAndAutoFallsBackToRandom) {
   lrf::test::TempDir tmp("points_blank");
   const std::string root = copy_scene(lrf::test::synthetic_scene(kNoPoints), tmp / "scene");
   for (const auto& e : fs::directory_iterator(fs::path(root) / "images")) {
-    lrf::write_image_rgb(e.path().string(), cv::Mat(144, 192, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5)));
+    lrf::write_image_rgb(e.path().string(), cv::Mat(192, 256, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5)));
   }
   lrf::Scene s = lrf::load_scene(root);
   std::string e = lrf::test::error_of([&] { lrf::triangulate_scene(s, {}); });
@@ -205,7 +207,10 @@ TEST(Points, NoMatchesIsAClearErrorAndAutoFallsBackToRandom) {
 TEST(Points, ZeroBaselineSceneIsAClearError) {
   // Every view the same camera and image: matches are perfect, but no ray pair has an angle.
   lrf::Scene s = lrf::load_scene(lrf::test::synthetic_scene(kNoPoints));
+  s.views.resize(4);
   for (auto& v : s.views) v = s.views[1];
+  s.train_indices = {0, 1, 2, 3};
+  s.test_indices.clear();
   std::string e = lrf::test::error_of([&] { lrf::triangulate_scene(s, {}); });
   EXPECT_NE(e.find(s.root), std::string::npos) << e;
   EXPECT_NE(e.find("no point survived"), std::string::npos) << e;
@@ -219,7 +224,15 @@ TEST(Points, CacheIsReusedAndInvalidatedWhenAnImageChanges) {
   o.neighbours = 4;
   o.training_views_only = true;
   const std::string cache = tmp / "cache";
+  auto listing = [&] {
+    std::vector<std::string> files;
+    for (const auto& e : fs::recursive_directory_iterator(root)) files.push_back(e.path().string());
+    std::sort(files.begin(), files.end());
+    return files;
+  };
+  const auto before = listing();
   lrf::Scene s = lrf::load_scene(root);
+  const std::string key_before = lrf::triangulation_cache_key(s, o);
   auto first = lrf::triangulate_cached(s, o, cache);
   ASSERT_TRUE(first.failure.empty()) << first.failure;
   EXPECT_FALSE(first.hit);
@@ -227,10 +240,7 @@ TEST(Points, CacheIsReusedAndInvalidatedWhenAnImageChanges) {
   EXPECT_TRUE(second.hit);
   ASSERT_EQ(second.points.size(), first.points.size());
   for (size_t k = 0; k < first.points.size(); ++k) EXPECT_LT((second.points[k].xyz - first.points[k].xyz).norm(), 1e-12);
-  // Nothing is written into the scene folder.
-  for (const auto& e : fs::recursive_directory_iterator(root)) {
-    EXPECT_EQ(e.path().string().find("points3D"), std::string::npos) << e.path();
-  }
+  EXPECT_EQ(listing(), before);  // nothing is written into the scene folder
 
   // A training view's image changes: a new entry.
   const std::string image = s.views[static_cast<size_t>(s.train_indices[0])].image_path;
@@ -238,7 +248,7 @@ TEST(Points, CacheIsReusedAndInvalidatedWhenAnImageChanges) {
   cv::flip(img, img, 1);
   lrf::write_image_rgb(image, img);
   lrf::Scene changed = lrf::load_scene(root);
-  EXPECT_NE(lrf::triangulation_cache_key(changed, o), lrf::triangulation_cache_key(s, o));
+  EXPECT_NE(lrf::triangulation_cache_key(changed, o), key_before);
   auto third = lrf::triangulate_cached(changed, o, cache);
   EXPECT_FALSE(third.hit);
   // And a resolution change is another entry too.
