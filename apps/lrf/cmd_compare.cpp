@@ -40,11 +40,10 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();
   cmd->add_flag("--force", o->force, "Retrain and re-score every method instead of reusing finished ones");
-  auto points = std::make_shared<lrf::InitPointsOptions>();
-  lrf::cli::add_init_points_options(cmd, points.get());
-  lrf::cli::on_run(cmd, [o, points] {
-    if (points->cache_dir.empty()) points->cache_dir = o->cache_dir;  // triangulated points beside the latents
-    lrf::set_default_init_points(*points);  // every method starts from the same points
+  lrf::cli::add_init_points_options(cmd, &o->init_points);
+  lrf::cli::on_run(cmd, [o] {
+    if (o->init_points.cache_dir.empty()) o->init_points.cache_dir = o->cache_dir;  // triangulated points beside the latents
+    lrf::check_init_points_mode(o->init_points.mode);
     lrf::run_compare(*o);
     std::printf("%s", lrf::read_file(o->out + "/table.md").c_str());
     return 0;

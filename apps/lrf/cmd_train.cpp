@@ -41,7 +41,7 @@ struct TrainOptions {
   lrf::InitPointsOptions init_points;
 };
 
-int run_train_latent(const TrainOptions& o) {
+int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points) {
   lrf::LatentTrainOptions l;
   l.scene = o.scene;
   l.out = o.out;
@@ -63,6 +63,7 @@ int run_train_latent(const TrainOptions& o) {
   l.resume = o.resume;
   l.force = o.force;
   l.sparse_adam = o.sparse_adam;
+  l.init_points = points;
   if (o.mip) lrf::fail("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
   lrf::train_latent_field(l);
   return 0;
@@ -136,8 +137,8 @@ int run_train(const TrainOptions& o) {
   using namespace lrf::splat;
   InitPointsOptions points = o.init_points;
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
-  set_default_init_points(points);
-  if (o.space == "latent") return run_train_latent(o);
+  check_init_points_mode(points.mode);
+  if (o.space == "latent") return run_train_latent(o, points);
   if (o.space != "rgb") fail("--space must be rgb or latent, got '" + o.space + "'");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
@@ -181,7 +182,7 @@ int run_train(const TrainOptions& o) {
   write_json_file(config_path, config);
 
   nlohmann::json init_points;
-  auto init = init_rgb_field(scene, o.sh_degree, o.seed, &init_points);
+  auto init = init_rgb_field(scene, o.sh_degree, o.seed, points, &init_points);
   config["init_points"] = init_points;
   write_json_file(config_path, config);
   log_info("initial field: " + std::to_string(init.size()) + " Gaussians from " +

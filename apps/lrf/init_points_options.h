@@ -1,7 +1,6 @@
 #pragma once
 // The options that choose a field's initial points, shared by every subcommand that trains fields from a
-// scene (train, compare): they set the process-wide defaults (lrf::set_default_init_points) before the
-// command runs, so every field the command builds starts alike.
+// scene (train, compare); the command passes them to every field it builds, so that all start alike.
 #include <CLI/CLI.hpp>
 
 #include "lrf/points/initial_points.h"

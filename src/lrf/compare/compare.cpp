@@ -78,6 +78,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
     l.encoder = o.encoder;
     l.cache_dir = o.cache_dir;
     l.sh_degree = o.latent_sh_degree;
+    l.init_points = o.init_points;
     l.iters = o.latent_iters > 0 ? o.latent_iters : o.iters;
     l.seed = o.seed;
     l.resume = resume;
@@ -128,6 +129,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
         b.mip = method == "rgb/8-mip";
         b.seed = o.seed;
         b.resume = resume;
+        b.init_points = o.init_points;
         train_rgb_baseline(b);
       }
       all[method] = evaluate_rgb_run(dir, o.lpips_weights);

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/points/initial_points.h"
 #include "lrf/refine/refine.h"
 #include "lrf/scene/scene.h"
 
@@ -20,6 +21,7 @@ struct CompareOptions {
   int64_t iters = 7000, latent_iters = 0;  // latent_iters 0 = iters
   uint64_t seed = 0;
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
+  InitPointsOptions init_points;  // every method starts from the same points
   RefineOptions refine;  // latent-refined: steps, crop, learning rates (run, out, decoder, seed are set here)
   bool force = false;
 };

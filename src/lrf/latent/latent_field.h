@@ -33,10 +33,10 @@ struct LatentTrainingData {
 };
 
 // Builds the training views and the starting field from the training views' raw latents, on the points
-// that choose_initial_points picks with `points` (default: the process-wide options).
+// that choose_initial_points picks with `points`.
 LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,
                                            LatentInit init, int sh_degree, uint64_t seed,
-                                           const InitPointsOptions& points = default_init_points());
+                                           const InitPointsOptions& points = InitPointsOptions{});
 
 // Decodes a normalised latent [C, h, w] from a field: denormalise (clamped) then decode -> [3, 8h, 8w].
 torch::Tensor decode_normalised(Autoencoder& ae, const LatentRange& range, const torch::Tensor& normalised);

@@ -11,6 +11,7 @@
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/latent/latent_normalization.h"
+#include "lrf/points/initial_points.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/render_field.h"
@@ -28,6 +29,7 @@ struct LatentTrainOptions {
   int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
   uint64_t seed = 0;
   bool resume = false, force = false, sparse_adam = false;
+  InitPointsOptions init_points;  // where the initial Gaussians come from (SfM, triangulated, random, a file)
 };
 
 struct LatentTrainResult {

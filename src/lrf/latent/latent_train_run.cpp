@@ -54,7 +54,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
                                     o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
   const double encode_seconds = encode_clock.seconds();
   log_info(std::string("training latents ") + (cached.hit ? "read from " : "encoded, cached in ") + cached.path);
-  LatentTrainingData data = prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed);
+  LatentTrainingData data = prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed, o.init_points);
   log_info("initial field: " + data.init_description);
 
   TrainerOptions to;

@@ -14,11 +14,6 @@ namespace fs = std::filesystem;
 namespace lrf {
 namespace {
 
-InitPointsOptions& defaults() {
-  static InitPointsOptions options;
-  return options;
-}
-
 bool is_keyword(const std::string& mode) { return mode == "auto" || mode == "random" || mode == "triangulate"; }
 
 std::string cache_dir_of(const InitPointsOptions& o) { return o.cache_dir.empty() ? default_cache_dir() : o.cache_dir; }
@@ -103,13 +98,6 @@ InitialPoints choose_points(const Scene& scene, const InitPointsOptions& o) {
 }
 
 }  // namespace
-
-const InitPointsOptions& default_init_points() { return defaults(); }
-
-void set_default_init_points(const InitPointsOptions& options) {
-  check_init_points_mode(options.mode);
-  defaults() = options;
-}
 
 void check_init_points_mode(const std::string& mode) {
   if (is_keyword(mode)) return;

@@ -37,11 +37,6 @@ InitialPoints choose_initial_points(const Scene& scene, const InitPointsOptions&
 // line that says which file or cache entry.
 InitialPoints describe_initial_points(const Scene& scene, const InitPointsOptions& options);
 
-// The options every field initialiser uses unless given others: the command line sets them once
-// (`--init-points` and friends), so that `train`, `compare` and `pipeline` build every field alike.
-const InitPointsOptions& default_init_points();
-void set_default_init_points(const InitPointsOptions& options);
-
 // Checks a --init-points value (auto, random, triangulate or an existing .bin/.txt file).
 void check_init_points_mode(const std::string& mode);
 

@@ -63,7 +63,7 @@ void train_rgb_baseline(const RgbBaselineOptions& o) {
   const std::string config_path = (fs::path(out) / "config.json").string();
   write_json_file(config_path, config);
   nlohmann::json init_points;
-  auto init = init_rgb_field(scene, 3, seed, &init_points);
+  auto init = init_rgb_field(scene, 3, seed, o.init_points, &init_points);
   config["init_points"] = init_points;
   write_json_file(config_path, config);
   Trainer trainer(std::move(views), std::move(init), extent, to);

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/points/initial_points.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf {
@@ -22,6 +23,7 @@ struct RgbBaselineOptions {
   bool mip = false;
   uint64_t seed = 0;
   bool resume = false;
+  InitPointsOptions init_points;  // where the initial Gaussians come from
 };
 
 void train_rgb_baseline(const RgbBaselineOptions& options);

@@ -33,10 +33,6 @@ std::vector<TrainView> rgb_views(const Scene& scene, const std::vector<int>& ind
   return views;
 }
 
-Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, nlohmann::json* origin) {
-  return init_rgb_field(scene, max_sh_degree, seed, default_init_points(), origin);
-}
-
 Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, const InitPointsOptions& options,
                          nlohmann::json* origin) {
   const InitialPoints init = choose_initial_points(scene, options);

@@ -25,10 +25,9 @@ std::vector<TrainView> rgb_views(const Scene& scene, const std::vector<int>& ind
 // Random initialisation: this many points, uniform in a cube around the cameras' mean whose half-size
 // is the scene extent (cameras' spread), with random colours.
 constexpr int64_t kRandomInitPoints = 100000;
-// With the process-wide point options (default_init_points()) unless given others. `origin`, when given,
-// receives InitialPoints::record (where the points came from) for the run's config.json.
-Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, nlohmann::json* origin = nullptr);
-Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed, const InitPointsOptions& points,
-                         nlohmann::json* origin);
+// On the points that choose_initial_points picks with `points`. `origin`, when given, receives
+// InitialPoints::record (where the points came from) for the run's config.json.
+Gaussians init_rgb_field(const Scene& scene, int max_sh_degree, uint64_t seed,
+                         const InitPointsOptions& points = InitPointsOptions{}, nlohmann::json* origin = nullptr);
 
 }  // namespace lrf::splat
