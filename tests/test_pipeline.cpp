@@ -29,6 +29,7 @@ lrf::PipelineOptions tiny_pipeline(const std::string& out) {
   o.field_iters = 60;
   o.stage3_steps = 3;
   o.refine.steps = 3;
+  o.rgb_full = true;  // every row of the ablation
   return o;
 }
 

@@ -268,6 +268,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"stage3_steps", o.stage3_steps},
                            {"refine", refine_options_json(o.refine)},
                            {"refine_rows", o.refine_rows},
+                           {"rgb_full", o.rgb_full},
                            {"stage1", encoder_finetune_options_json(o.stage1)},
                            {"seed", o.seed}};
   for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical(s));
@@ -337,6 +338,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       };
       for (const Baseline& b : {Baseline{"rgb/8", "rgb8", 8, false}, Baseline{"rgb/8-mip", "rgb8mip", 8, true},
                                 Baseline{"rgb", "rgb", 1, false}}) {
+        if (b.factor == 1 && !o.rgb_full) continue;
         const std::string rgb = paths.field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
         const std::string metrics = (fs::path(rgb) / "metrics.json").string();

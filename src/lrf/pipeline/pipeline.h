@@ -34,7 +34,8 @@ struct PipelineOptions {
   int stage3_crop = 0;              // 0: the decoder fine-tuning's default
   uint64_t seed = 0;
   RefineOptions refine;             // the refined rows: steps, crop, learning rates (the rest is set here)
-  bool rgb_baseline = true;         // the rgb/8, rgb/8-mip and rgb rows
+  bool rgb_baseline = true;         // the rgb/8 and rgb/8-mip rows
+  bool rgb_full = false;            // the rgb row (full resolution: the most costly field, so on request)
   bool refine_rows = true;          // the stock+refine and both+refine rows
 };
 
