@@ -58,13 +58,13 @@ nlohmann::json run_compare(const CompareOptions& o) {
   so.crop_to_multiple_of_8 = true;
   Scene scene = load_scene(o.scene, so);
   auto resumable = [&](const std::string& dir) {
-    return !o.force && fs::exists(splat::checkpoint_path(dir)) && !fs::exists(fs::path(dir) / "point_cloud.ply");
+    return !o.force && fs::exists(splat::checkpoint_path(dir)) && !splat::run_finished(dir);
   };
   // The latent field: the latent row, and what latent-refined starts from.
   const std::string latent_dir = (fs::path(o.out) / "latent").string();
   bool latent_fresh = false;  // trained by this call (then a refined field made from an older one is stale)
   auto ensure_latent_field = [&] {
-    if (!o.force && fs::exists(fs::path(latent_dir) / "point_cloud.ply")) return;
+    if (!o.force && splat::run_finished(latent_dir)) return;
     if (latent_fresh) return;
     const bool resume = resumable(latent_dir);
     log_info(std::string("== latent field") + (resume ? " (resuming)" : ""));
@@ -90,7 +90,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& method : o.methods) {
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
-    if (!o.force && fs::exists(metrics_path)) {
+    // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
+    if (!o.force && fs::exists(metrics_path) && splat::run_finished(dir)) {
       log_info(method + ": reusing " + metrics_path + " (pass --force to recompute)");
       all[method] = read_json_file(metrics_path);
       continue;
@@ -105,7 +106,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
       all[method] = evaluate_latent_run(dir, le);
     } else if (method == "latent-refined") {
       ensure_latent_field();
-      if (o.force || latent_fresh || !fs::exists(fs::path(dir) / "point_cloud.ply")) {
+      if (o.force || latent_fresh || !splat::run_finished(dir)) {
         RefineOptions r = o.refine;
         r.run = latent_dir;
         r.out = dir;
@@ -119,7 +120,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
     } else {
-      if (o.force || !fs::exists(fs::path(dir) / "point_cloud.ply")) {
+      if (o.force || !splat::run_finished(dir)) {
         RgbBaselineOptions b;
         b.scene = o.scene;
         b.scene_options = so;

@@ -32,11 +32,6 @@ std::string canonical(const std::string& p) {
 
 std::string scene_name(const std::string& root) { return fs::path(canonical(root)).filename().string(); }
 
-bool run_finished(const std::string& dir) {
-  const fs::path config = fs::path(dir) / "config.json";
-  return fs::exists(config) && fs::exists(fs::path(dir) / "point_cloud.ply") && read_json_file(config.string()).contains("result");
-}
-
 struct Paths {
   std::string root;
   std::string field(const std::string& scene, const std::string& tag) const {
@@ -77,7 +72,7 @@ nlohmann::json field_settings(const std::string& scene, int downscale, int64_t i
 
 // True if DIR holds a finished field made with these settings; throws if it holds one made with others.
 bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
-  if (!run_finished(dir)) return false;
+  if (!splat::run_finished(dir)) return false;
   const std::string record = (fs::path(dir) / "config.json").string();
   const nlohmann::json config = read_json_file(record);
   const nlohmann::json& options = config.at("options");
@@ -142,7 +137,7 @@ void ensure_refined_field(const PipelineOptions& o, const std::string& field, co
   r.decoder = decoder;
   r.seed = o.seed;
   const std::string config = (fs::path(dir) / "config.json").string();
-  if (run_finished(dir)) {
+  if (splat::run_finished(dir)) {
     const nlohmann::json recorded = read_json_file(config);
     const nlohmann::json refine = recorded.value("refine", nlohmann::json::object());
     require_same_settings(config, {{"refine", refine.value("resume_key", nlohmann::json())},

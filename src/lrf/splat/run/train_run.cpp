@@ -10,6 +10,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
+#include "lrf/core/run_info.h"
 #include "lrf/splat/ply_io.h"
 
 namespace fs = std::filesystem;
@@ -36,6 +37,12 @@ std::string log_rows_until(const std::string& path, int64_t step) {
 }  // namespace
 
 std::string checkpoint_path(const std::string& out) { return (fs::path(out) / "checkpoint.pt").string(); }
+
+bool run_finished(const std::string& out) {
+  const fs::path config = fs::path(out) / "config.json";
+  if (!fs::exists(config) || !fs::exists(fs::path(out) / "point_cloud.ply")) return false;
+  return read_json_file(config.string()).contains("result");
+}
 
 FolderLock prepare_output_dir(const std::string& out, bool force, bool resume) {
   std::error_code ec;

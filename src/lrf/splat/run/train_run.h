@@ -21,6 +21,10 @@ namespace lrf::splat {
 
 std::string checkpoint_path(const std::string& out);
 
+// Whether OUT holds a run that trained to its end: config.json has its "result" and point_cloud.ply
+// exists. point_cloud.ply alone does not say so: every checkpoint refreshes it (see above).
+bool run_finished(const std::string& out);
+
 struct RunOptions {
   std::string out;
   bool resume = false;
