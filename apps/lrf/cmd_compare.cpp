@@ -36,6 +36,9 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--refine-lr-scale", o->refine.lr_scale, "latent-refined: multiplies Stage II's learning rates")
       ->capture_default_str();
+  cmd->add_option("--refine-decoder-lr", o->refine.decoder_lr,
+                  "latent-refined: also adapt the decoder to the scene's training views at this Adam rate (0 = frozen)")
+      ->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();

@@ -51,6 +51,9 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--refine-lr-scale", o->refine.lr_scale, "Refinement: multiplies Stage II's learning rates")
       ->capture_default_str();
+  cmd->add_option("--refine-decoder-lr", o->refine.decoder_lr,
+                  "Refinement: also adapt each decoder to the scene's training views at this Adam rate (0 = frozen)")
+      ->capture_default_str();
   cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the image-space baselines (rgb/8, rgb/8-mip, and rgb if asked)");
   cmd->add_flag("--rgb-full", o->rgb_full,
                 "Add the rgb row: an RGB field at full resolution (an upper reference; the costliest field to train)");
