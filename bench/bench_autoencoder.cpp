@@ -1,132 +1,345 @@
-// Encode / decode time and peak memory of the autoencoders on CPU: TAEF2 (real weights from
-// ../shared/models when present, else random weights of the same architecture) and the full-size
-// KL-f8 VAE (ch 128, random weights) at 504x376 and 512x512, default and channels-last layouts.
+// The autoencoders in fp32 against bf16 (Autoencoder::set_precision), measured back to back in one
+// process: each repetition runs both precisions, in alternating order, so that the machine's drift
+// (other jobs, clocks) falls on both alike; the speed-up is reported per repetition (median and range).
 //
-// Reported per benchmark: wall time per call, process CPU seconds per call (all threads; on a loaded
-// shared machine CPU / threads approximates the uncontended wall time), and peak resident memory
-// (VmHWM, reset before each benchmark through /proc/self/clear_refs).
-//   ./build/bench_autoencoder [--threads N] [google-benchmark flags, e.g. --benchmark_filter=taef2]
-#include <ctime>
+// Cases (all TAEF2 at 504x376, fern's images_8 size cropped to multiples of 8, batch 1, real weights
+// from ../shared/models when present, else random weights of the same architecture):
+//   conv      one 64->64 3x3 convolution at 504x376, channels-last: what oneDNN reaches per precision
+//             (the ceiling for the networks, which are almost only such convolutions)
+//   encode    image -> latent, no gradient
+//   decode    latent -> image, no gradient
+//   backward  decode_unclamped + backward to the latent (the decoder frozen): a refinement step's share
+//   stage1    one Stage I step: 2 pairs of 192x192 crops of llff-fern, L_VAE + L_corres + L_reg,
+//             backward into the encoder, Adam on float32 master weights
+//   stage3    one Stage III step: 2 + 2 crops of 128x128 (latents of fern's views), L1 through the
+//             decoder, backward into the decoder, Adam
+//   quality   round-trip PSNR on fern's test views 0, 8, 16 per precision, and their difference
+//   kl        the full-size KL-f8 VAE (random weights) encode and decode at 504x376
+// GFLOP/s count the convolutions' multiply-adds (x2) from the architecture (see taef2_*_flops).
+//
+// usage: bench_autoencoder [--threads N] [--reps R] [CASE ...]   (default: every case but kl; 2 threads)
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
+#include <functional>
 #include <memory>
+#include <set>
 #include <string>
+#include <vector>
 
-#include <benchmark/benchmark.h>
 #include <torch/torch.h>
 
-#include "lrf/core/allocator.h"
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/tiny_ae.h"
+#include "lrf/core/allocator.h"
+#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 #include "lrf/core/threads.h"
+#include "lrf/eval/metrics.h"
+#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/finetune/encoder_finetune.h"
+#include "lrf/finetune/pair_batches.h"
+#include "lrf/scene/scene.h"
 
 namespace {
 
-double process_cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
-}
+using lrf::Precision;
+constexpr int kWidth = 504, kHeight = 376;
 
-// Peak resident set size in MB (VmHWM).
-double peak_rss_mb() {
-  std::ifstream in("/proc/self/status");
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind("VmHWM:", 0) == 0) return std::atof(line.c_str() + 6) / 1024.0;
-  }
-  return 0;
+std::string shared_dir() {
+  const char* s = std::getenv("LRF_SHARED");
+  return s && *s ? s : "../shared";
 }
-
-void reset_peak_rss() { std::ofstream("/proc/self/clear_refs") << "5"; }
 
 std::unique_ptr<lrf::Autoencoder> make_taef2() {
   try {
     return lrf::load_autoencoder("taef2");
   } catch (const lrf::Error& e) {
     std::fprintf(stderr, "bench: %s; using random TAEF2-shaped weights\n", e.what());
-    return std::make_unique<lrf::TinyAutoencoder>(32, true);
+    auto ae = std::make_unique<lrf::TinyAutoencoder>(32, true);
+    ae->set_channels_last(true);
+    return ae;
   }
 }
 
-std::unique_ptr<lrf::Autoencoder> make_kl() { return std::make_unique<lrf::KLAutoencoder>(lrf::KLConfig{}); }
-
-// Models are built once and shared by the benchmarks of a family.
-lrf::Autoencoder& model(const std::string& family) {
-  static std::unique_ptr<lrf::Autoencoder> taef2, kl;
-  if (family == "taef2") {
-    if (!taef2) taef2 = make_taef2();
-    return *taef2;
-  }
-  if (!kl) kl = make_kl();
-  return *kl;
+// Multiply-adds of TAEF2's convolutions (the rest is a few percent of the time), counted from its
+// architecture (tiny_ae.h): 3x3 convs of 64 channels everywhere, a 1x1 64->256->64 pool branch in the
+// three blocks at 1/8 resolution, a 3-channel image and a 32-channel latent.
+constexpr double kConv64 = 64.0 * 64 * 9;  // one 3x3 64->64 convolution, per output pixel
+constexpr double kPool = 2.0 * 64 * 256;   // one pool branch, per latent cell
+double taef2_encode_flops(int w, int h) {
+  const double p = static_cast<double>(w) * h;
+  const double full = (3.0 * 64 * 9 + 3 * kConv64) * p;                       // conv in, one block
+  const double levels = 10 * kConv64 * (p / 4 + p / 16 + p / 64);               // stride-2 conv + 3 blocks each
+  const double latent = (3 * kPool + 64.0 * 32 * 9) * (p / 64);                 // pool branches, conv out
+  return 2 * (full + levels + latent);
+}
+double taef2_decode_flops(int w, int h) {
+  const double p = static_cast<double>(w) * h, cells = p / 64;
+  const double latent = (32.0 * 64 * 9 + 9 * kConv64 + 3 * kPool) * cells;     // conv in, 3 blocks
+  const double middle = 10 * kConv64 * (cells * 4 + cells * 16);                // 3 blocks + upsampling conv
+  const double full = (4 * kConv64 + 64.0 * 3 * 9) * p;                         // upsampling conv, block, conv out
+  return 2 * (latent + middle + full);
 }
 
-void run(benchmark::State& state, const std::string& family, bool decode) {
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// Runs `once(precision)` for fp32 and bf16 `reps` times each, alternating which goes first, after one
+// warm-up each (oneDNN builds its kernels on first use). Prints seconds per call, calls per second, the
+// speed-up fp32/bf16 per repetition, and GFLOP/s when `flops` is given.
+void ab(const std::string& name, int reps, double flops, const std::function<void(Precision)>& once) {
+  once(Precision::fp32);
+  once(Precision::bf16);
+  std::vector<double> t32, t16, ratio;
+  for (int r = 0; r < reps; ++r) {
+    double a = 0, b = 0;
+    for (int k = 0; k < 2; ++k) {
+      const bool fp32_now = (k == 0) == (r % 2 == 0);
+      const double t0 = now();
+      once(fp32_now ? Precision::fp32 : Precision::bf16);
+      (fp32_now ? a : b) = now() - t0;
+    }
+    t32.push_back(a);
+    t16.push_back(b);
+    ratio.push_back(a / b);
+  }
+  auto row = [&](const char* p, const std::vector<double>& t) {
+    const double m = median(t);
+    std::printf("%-10s %-5s %8.1f ms [%7.1f - %7.1f]  %6.2f /s", name.c_str(), p, 1e3 * m,
+                1e3 * *std::min_element(t.begin(), t.end()), 1e3 * *std::max_element(t.begin(), t.end()), 1 / m);
+    if (flops > 0) std::printf("  %6.0f GFLOP/s", flops / m * 1e-9);
+    std::printf("\n");
+  };
+  row("fp32", t32);
+  row("bf16", t16);
+  std::printf("%-10s speed-up bf16 over fp32: %.2fx (per repetition %.2f - %.2f, %d repetitions)\n\n", name.c_str(),
+              median(ratio), *std::min_element(ratio.begin(), ratio.end()),
+              *std::max_element(ratio.begin(), ratio.end()), reps);
+  std::fflush(stdout);
+}
+
+at::Tensor fern_image(int index) {
+  lrf::SceneOptions so;
+  so.images_dir = "images_8";
+  so.crop_to_multiple_of_8 = true;
+  lrf::Scene scene = lrf::load_scene(shared_dir() + "/scenes/llff-fern", so);
+  return lrf::image_to_batch(scene.load_image(index));
+}
+
+void bench_conv(int reps) {
   torch::NoGradGuard no_grad;
-  const int width = static_cast<int>(state.range(0)), height = static_cast<int>(state.range(1));
-  const bool channels_last = state.range(2) != 0;
-  lrf::Autoencoder& ae = model(family);
-  ae.set_channels_last(channels_last);
   torch::manual_seed(0);
-  at::Tensor x = torch::rand({1, 3, height, width});
+  at::Tensor x = torch::rand({1, 64, kHeight, kWidth}).contiguous(at::MemoryFormat::ChannelsLast);
+  at::Tensor w = torch::randn({64, 64, 3, 3}).contiguous(at::MemoryFormat::ChannelsLast) * 0.05;
+  at::Tensor x16 = x.to(at::kBFloat16), w16 = w.to(at::kBFloat16);
+  const double flops = 2.0 * kConv64 * kWidth * kHeight;
+  ab("conv", reps, flops, [&](Precision p) {
+    at::Tensor y = p == Precision::bf16 ? at::conv2d(x16, w16, {}, 1, 1) : at::conv2d(x, w, {}, 1, 1);
+  });
+}
+
+void bench_taef2(lrf::Autoencoder& ae, const std::set<std::string>& cases, int reps) {
+  torch::manual_seed(0);
+  at::Tensor x = fern_image(0);
+  at::Tensor z;
+  {
+    torch::NoGradGuard no_grad;
+    ae.set_precision(Precision::fp32);
+    z = ae.encode(x);
+  }
+  if (cases.count("encode")) {
+    torch::NoGradGuard no_grad;
+    ab("encode", reps, taef2_encode_flops(kWidth, kHeight), [&](Precision p) {
+      ae.set_precision(p);
+      ae.encode(x);
+    });
+  }
+  if (cases.count("decode")) {
+    torch::NoGradGuard no_grad;
+    ab("decode", reps, taef2_decode_flops(kWidth, kHeight), [&](Precision p) {
+      ae.set_precision(p);
+      ae.decode(z);
+    });
+  }
+  if (cases.count("backward")) {
+    ae.set_decoder_trainable(false);
+    at::Tensor upstream = torch::randn({1, 3, kHeight, kWidth});
+    // The backward costs about twice the forward (data gradients only: the weights are frozen).
+    ab("backward", reps, 2 * taef2_decode_flops(kWidth, kHeight), [&](Precision p) {
+      ae.set_precision(p);
+      at::Tensor zz = z.detach().requires_grad_(true);
+      ae.decode_unclamped(zz).backward(upstream);
+    });
+    ae.set_decoder_trainable(true);
+  }
+}
+
+// What the explicit casts of the fp32 master weights to bf16 cost in one step: casting every weight of
+// the model once (the alternative, a bf16 copy refreshed after each Adam step, casts each once per step
+// too, so this bounds what it could save).
+double weight_cast_ms(const std::vector<at::Tensor>& params) {
+  torch::NoGradGuard no_grad;
+  const double t0 = now();
+  for (int k = 0; k < 5; ++k) {
+    for (const auto& p : params) p.to(at::kBFloat16);
+  }
+  return (now() - t0) / 5 * 1e3;
+}
+
+void bench_stage1(int reps) {
+  lrf::SceneOptions so;
+  so.images_dir = "images_8";
+  std::vector<lrf::PairScene> scenes;
+  scenes.push_back(lrf::load_pair_scene(shared_dir() + "/scenes/llff-fern", so, 640, "", 15));
+  lrf::EncoderFinetuneOptions o;
+  o.batch.pairs = 2;
+  o.batch.crop = 192;
+  auto model = make_taef2(), original = make_taef2();
+  original->set_encoder_trainable(false);
+  original->set_decoder_trainable(false);
+  model->set_decoder_trainable(false);
+  lrf::ParamAdam adam(model->encoder_parameters(), {1e-5});
+  lrf::PairBatch batch = lrf::sample_pair_batch(scenes, o.batch, 0, 0);
+  std::printf("stage1: %lld images of %lldx%lld per step; casting every weight once to bf16: %.1f ms\n",
+              static_cast<long long>(batch.images.size(0)), static_cast<long long>(batch.images.size(2)),
+              static_cast<long long>(batch.images.size(3)), weight_cast_ms(model->encoder_parameters()) +
+              weight_cast_ms(model->decoder_parameters()));
+  ab("stage1", reps, 0, [&](Precision p) {
+    model->set_precision(p);
+    original->set_precision(p);
+    adam.zero_grad();
+    lrf::Stage1Losses l = lrf::stage1_losses(*model, *original, batch, o);
+    l.total.backward();
+    adam.step();
+  });
+}
+
+void bench_stage3(int reps) {
+  auto ae = make_taef2();
+  ae->set_encoder_trainable(false);
+  // Latents of two fern views (crops of encoded views stand in for rendered ones: same sizes and cost).
+  std::vector<at::Tensor> z, x;
+  {
+    torch::NoGradGuard no_grad;
+    for (int i : {0, 8}) {
+      at::Tensor image = fern_image(i);
+      x.push_back(image);
+      z.push_back(ae->encode(image));
+    }
+  }
+  const int64_t crop = 128, lc = crop / 8;
+  auto crops = [&](int k) {
+    // Two crops per group at fixed places (the cost does not depend on where).
+    std::vector<at::Tensor> zs, xs;
+    for (int j = 0; j < 2; ++j) {
+      const int64_t ly = 4 * j + k, lx = 10 * j + 3 * k;
+      zs.push_back(z[static_cast<size_t>(k)][0].narrow(1, ly, lc).narrow(2, lx, lc));
+      xs.push_back(x[static_cast<size_t>(k)][0].narrow(1, 8 * ly, crop).narrow(2, 8 * lx, crop));
+    }
+    return std::make_pair(at::stack(zs), at::stack(xs));
+  };
+  auto [z_train, x_train] = crops(0);
+  auto [z_novel, x_novel] = crops(1);
+  lrf::ParamAdam adam(ae->decoder_parameters(), {1e-5});
+  std::printf("stage3: 2 + 2 crops of %lldx%lld per step; casting every decoder weight once to bf16: %.1f ms\n",
+              static_cast<long long>(crop), static_cast<long long>(crop), weight_cast_ms(ae->decoder_parameters()));
+  ab("stage3", reps, 0, [&](Precision p) {
+    ae->set_precision(p);
+    adam.zero_grad();
+    at::Tensor loss = 0.5 * (ae->decode(z_train) - x_train).abs().mean() + 0.5 * (ae->decode(z_novel) - x_novel).abs().mean();
+    loss.backward();
+    adam.step();
+  });
+}
+
+void bench_quality(lrf::Autoencoder& ae) {
+  torch::NoGradGuard no_grad;
+  std::printf("quality: TAEF2 round trip (encode + decode) PSNR on llff-fern images_8 test views, 504x376\n");
+  std::printf("%-6s %9s %9s %9s %14s\n", "view", "fp32 dB", "bf16 dB", "diff dB", "fp32 vs bf16 dB");
+  double s32 = 0, s16 = 0;
+  for (int i : {0, 8, 16}) {
+    at::Tensor x = fern_image(i);
+    ae.set_precision(Precision::fp32);
+    at::Tensor y32 = ae.decode(ae.encode(x));
+    ae.set_precision(Precision::bf16);
+    at::Tensor y16 = ae.decode(ae.encode(x));
+    const double p32 = lrf::psnr(y32[0], x[0]), p16 = lrf::psnr(y16[0], x[0]), between = lrf::psnr(y16[0], y32[0]);
+    s32 += p32;
+    s16 += p16;
+    std::printf("%-6d %9.3f %9.3f %+9.3f %14.2f\n", i, p32, p16, p16 - p32, between);
+  }
+  std::printf("%-6s %9.3f %9.3f %+9.3f\n\n", "mean", s32 / 3, s16 / 3, (s16 - s32) / 3);
+  std::fflush(stdout);
+}
+
+void bench_kl(int reps) {
+  torch::NoGradGuard no_grad;
+  lrf::KLAutoencoder ae{lrf::KLConfig{}};
+  ae.set_channels_last(true);
+  torch::manual_seed(0);
+  at::Tensor x = torch::rand({1, 3, kHeight, kWidth});
   at::Tensor z = ae.encode(x);
-  reset_peak_rss();
-  ae.decode(z);  // warm-up (oneDNN primitive creation)
-  double cpu = 0;
-  for (auto _ : state) {
-    double c0 = process_cpu_seconds();
-    at::Tensor out = decode ? ae.decode(z) : ae.encode(x);
-    benchmark::DoNotOptimize(out.data_ptr());
-    cpu += process_cpu_seconds() - c0;
-  }
-  state.counters["cpu_s_per_call"] = cpu / static_cast<double>(state.iterations());
-  state.counters["peak_rss_MB"] = peak_rss_mb();
-  state.counters["threads"] = lrf::thread_count();
-  state.SetLabel(std::string(channels_last ? "channels-last" : "contiguous"));
+  ab("kl-encode", reps, 0, [&](Precision p) {
+    ae.set_precision(p);
+    ae.encode(x);
+  });
+  ab("kl-decode", reps, 0, [&](Precision p) {
+    ae.set_precision(p);
+    ae.decode(z);
+  });
 }
-
-void taef2_encode(benchmark::State& s) { run(s, "taef2", false); }
-void taef2_decode(benchmark::State& s) { run(s, "taef2", true); }
-void kl_encode(benchmark::State& s) { run(s, "kl", false); }
-void kl_decode(benchmark::State& s) { run(s, "kl", true); }
-
-void sizes(benchmark::internal::Benchmark* b) {
-  for (int cl : {0, 1}) {
-    b->Args({504, 376, cl});
-    b->Args({512, 512, cl});
-  }
-  b->ArgNames({"w", "h", "channels_last"})->Unit(benchmark::kMillisecond)->UseRealTime();
-}
-
-BENCHMARK(taef2_encode)->Apply(sizes)->Iterations(3);
-BENCHMARK(taef2_decode)->Apply(sizes)->Iterations(3);
-BENCHMARK(kl_encode)->Apply(sizes)->Iterations(1);
-BENCHMARK(kl_decode)->Apply(sizes)->Iterations(1);
 
 }  // namespace
 
 int main(int argc, char** argv) {
   lrf::keep_freed_memory();  // as the lrf binary does, so that the figures match its runs
-  int threads = 2;
-  for (int i = 1; i + 1 < argc; ++i) {
-    if (std::strcmp(argv[i], "--threads") == 0) {
-      threads = std::atoi(argv[i + 1]);
-      for (int j = i; j + 2 < argc + 1; ++j) argv[j] = argv[j + 2];
-      argc -= 2;
-      break;
+  int threads = 2, reps = 5;
+  std::set<std::string> cases;
+  for (int i = 1; i < argc; ++i) {
+    if (std::strcmp(argv[i], "--threads") == 0 && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+    } else if (std::strcmp(argv[i], "--reps") == 0 && i + 1 < argc) {
+      reps = std::max(1, std::atoi(argv[++i]));
+    } else {
+      cases.insert(argv[i]);
     }
   }
+  const std::set<std::string> known = {"conv", "encode", "decode", "backward", "stage1", "stage3", "quality", "kl"};
+  for (const auto& c : cases) {
+    if (!known.count(c)) {
+      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv encode decode backward stage1 stage3 quality kl)\n",
+                   c.c_str());
+      return 2;
+    }
+  }
+  if (cases.empty()) cases = {"conv", "encode", "decode", "backward", "stage1", "stage3", "quality"};
   lrf::set_thread_count(threads);
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
   double load[3] = {0, 0, 0};
-  if (getloadavg(load, 3) > 0) std::fprintf(stderr, "load average at start: %.2f (on %d threads)\n", load[0], threads);
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
+  if (getloadavg(load, 3) > 0) std::printf("load average at start: %.2f; %d threads; %d repetitions\n", load[0], threads, reps);
+  std::printf("CPU native bf16 (AVX512_BF16 or AMX-BF16): %s\n\n", lrf::cpu_reports_bf16() ? "yes" : "no");
+  try {
+    if (cases.count("conv")) bench_conv(reps);
+    if (cases.count("encode") || cases.count("decode") || cases.count("backward") || cases.count("quality")) {
+      auto ae = make_taef2();
+      bench_taef2(*ae, cases, reps);
+      if (cases.count("quality")) bench_quality(*ae);
+    }
+    if (cases.count("stage1")) bench_stage1(reps);
+    if (cases.count("stage3")) bench_stage3(reps);
+    if (cases.count("kl")) bench_kl(std::min(reps, 3));
+  } catch (const lrf::Error& e) {
+    std::fprintf(stderr, "bench_autoencoder: %s\n", e.what());
+    return 1;
+  }
   return 0;
 }

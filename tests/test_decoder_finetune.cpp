@@ -80,13 +80,23 @@ TEST_F(DecoderFinetune, LowersHeldOutL1OnAnUnseenScene) {
   for (const auto& item : tensors) EXPECT_EQ(item.key().find("encoder"), std::string::npos) << item.key();
 }
 
-TEST_F(DecoderFinetune, ResumedRunEqualsUninterruptedRun) {
-  lrf::DecoderFinetuneOptions straight = options(*dir_ / "straight.safetensors");
+// Stage III at each precision (bf16: bf16 compute on float32 master weights and Adam state).
+class DecoderFinetuneAt : public DecoderFinetune, public ::testing::WithParamInterface<lrf::Precision> {
+ protected:
+  lrf::test::ScopedPrecision precision_{GetParam()};
+};
+INSTANTIATE_TEST_SUITE_P(Precisions, DecoderFinetuneAt, ::testing::Values(lrf::Precision::fp32, lrf::Precision::bf16),
+                         lrf::test::precision_param_name);
+
+TEST_P(DecoderFinetuneAt, ResumedRunEqualsUninterruptedRun) {
+  // The suite's folder is shared by both precisions: each writes its own files.
+  const std::string tag = lrf::precision_name(GetParam());
+  lrf::DecoderFinetuneOptions straight = options(*dir_ / ("straight-" + tag + ".safetensors"));
   straight.steps = 4;
   straight.checkpoint_every = 2;
   lrf::finetune_decoder(straight);
   lrf::DecoderFinetuneOptions first = straight;
-  first.out = *dir_ / "resumed.safetensors";
+  first.out = *dir_ / ("resumed-" + tag + ".safetensors");
   first.steps = 2;
   lrf::finetune_decoder(first);
   lrf::DecoderFinetuneOptions second = first;
@@ -96,6 +106,10 @@ TEST_F(DecoderFinetune, ResumedRunEqualsUninterruptedRun) {
   auto a = lrf::read_safetensors(straight.out), b = lrf::read_safetensors(second.out);
   ASSERT_EQ(a.size(), b.size());
   for (size_t k = 0; k < a.size(); ++k) EXPECT_TRUE(torch::equal(a[k].value(), b[k].value())) << a[k].key();
+  // The weights stay float32 at either precision; the checkpoint names the precision its steps ran at.
+  for (size_t k = 0; k < b.size(); ++k) EXPECT_EQ(b[k].value().scalar_type(), at::kFloat) << b[k].key();
+  EXPECT_EQ(lrf::read_safetensors_metadata(lrf::decoder_checkpoint_path(second.out))["lrf_precision"],
+            lrf::precision_name(GetParam()));
 }
 
 TEST_F(DecoderFinetune, BadInputIsReported) {

@@ -9,6 +9,7 @@
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
+#include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/finetune/consistency.h"
 #include "lrf/finetune/encoder_finetune.h"
@@ -150,12 +151,24 @@ TEST(Stage1Loss, KLVaeUsesPosteriorKLAsRegulariser) {
   EXPECT_GT(g, 0.0);
 }
 
-TEST(EncoderFinetune, TinyRunMakesAHeldOutSceneMoreConsistent) {
+// Stage I at each precision (bf16: bf16 compute on float32 master weights and Adam state).
+class EncoderFinetuneAt : public ::testing::TestWithParam<lrf::Precision> {
+ protected:
+  lrf::test::ScopedPrecision precision_{GetParam()};
+};
+INSTANTIATE_TEST_SUITE_P(Precisions, EncoderFinetuneAt, ::testing::Values(lrf::Precision::fp32, lrf::Precision::bf16),
+                         lrf::test::precision_param_name);
+
+TEST_P(EncoderFinetuneAt, TinyRunMakesAHeldOutSceneMoreConsistent) {
   lrf::test::TempDir dir("stage1_tiny");
   lrf::EncoderFinetuneOptions o = tiny_options(dir / "enc.safetensors");
-  lrf::finetune_encoder(o);
+  auto result = lrf::finetune_encoder(o);
   ASSERT_TRUE(fs::exists(o.out));
   ASSERT_TRUE(fs::exists(lrf::finetune_record_path(o.out)));
+  nlohmann::json record = lrf::read_json_file(lrf::finetune_record_path(o.out));
+  EXPECT_EQ(record.value("precision", ""), lrf::precision_name(GetParam()));
+  std::printf("%s: last loss %.5f (vae %.5f, corres %.5f, reg %.6f)\n", lrf::precision_name(GetParam()).c_str(),
+              result.last_total, result.last_vae, result.last_corres, result.last_reg);
 
   lrf::PairScene heldout = pair_scene(heldout_scene());
   auto stock = lrf::load_autoencoder(taef2());
@@ -171,7 +184,7 @@ TEST(EncoderFinetune, TinyRunMakesAHeldOutSceneMoreConsistent) {
   EXPECT_GT(after.roundtrip_psnr, before.roundtrip_psnr - 2.0);
 }
 
-TEST(EncoderFinetune, ResumedRunEqualsUninterruptedRun) {
+TEST_P(EncoderFinetuneAt, ResumedRunEqualsUninterruptedRun) {
   lrf::test::TempDir dir("stage1_resume");
   lrf::EncoderFinetuneOptions straight = tiny_options(dir / "straight.safetensors");
   straight.steps = 6;
@@ -190,6 +203,10 @@ TEST(EncoderFinetune, ResumedRunEqualsUninterruptedRun) {
   lrf::StateDict a = lrf::read_safetensors(straight.out), b = lrf::read_safetensors(second.out);
   ASSERT_EQ(a.size(), b.size());
   for (size_t k = 0; k < a.size(); ++k) EXPECT_TRUE(torch::equal(a[k].value(), b[k].value())) << a[k].key();
+  // The weights stay float32 at either precision; the checkpoint names the precision its steps ran at.
+  for (size_t k = 0; k < b.size(); ++k) EXPECT_EQ(b[k].value().scalar_type(), at::kFloat) << b[k].key();
+  EXPECT_EQ(lrf::read_safetensors_metadata(lrf::finetune_checkpoint_path(second.out))["lrf_precision"],
+            lrf::precision_name(GetParam()));
 
   // Resuming with other options is refused rather than mixing two runs.
   lrf::EncoderFinetuneOptions other = second;

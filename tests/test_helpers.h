@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "lrf/core/error.h"
+#include "lrf/core/precision.h"
 #include "lrf/scene/synthetic_scene.h"
 
 namespace lrf::test {
@@ -86,6 +87,23 @@ inline std::string error_of(const std::function<void()>& f) {
     return e.what();
   }
   return "";
+}
+
+// Sets the precision that load_autoencoder gives its models (default_precision) for one scope.
+class ScopedPrecision {
+ public:
+  explicit ScopedPrecision(Precision p) : before_(default_precision()) { set_default_precision(p); }
+  ~ScopedPrecision() { set_default_precision(before_); }
+  ScopedPrecision(const ScopedPrecision&) = delete;
+  ScopedPrecision& operator=(const ScopedPrecision&) = delete;
+
+ private:
+  Precision before_;
+};
+
+// Test-name suffix for tests parametrised by precision ("fp32", "bf16").
+inline std::string precision_param_name(const ::testing::TestParamInfo<Precision>& info) {
+  return precision_name(info.param);
 }
 
 }  // namespace lrf::test

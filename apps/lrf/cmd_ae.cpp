@@ -50,7 +50,7 @@ void add_model_options(CLI::App* cmd, const std::shared_ptr<ModelOptions>& m) {
 std::unique_ptr<lrf::Autoencoder> load_model(const ModelOptions& m) {
   auto ae = lrf::load_autoencoder(m.autoencoder, m.encoder, m.decoder);
   if (m.contiguous) ae->set_channels_last(false);
-  lrf::log_info("autoencoder: " + ae->description());
+  lrf::log_info("autoencoder: " + ae->description() + ", " + lrf::precision_name(ae->precision()));
   return ae;
 }
 
@@ -122,6 +122,7 @@ int run_roundtrip(const ModelOptions& m, const RoundtripOptions& o) {
   if (o.json) {
     nlohmann::json out = {{"autoencoder", ae->description()},
                           {"latent_channels", ae->latent_channels()},
+                          {"precision", lrf::precision_name(ae->precision())},
                           {"threads", lrf::thread_count()},
                           {"psnr_mean", psnr_sum / n},
                           {"encode_seconds_mean", enc_sum / n},
@@ -130,8 +131,9 @@ int run_roundtrip(const ModelOptions& m, const RoundtripOptions& o) {
                           {"versions", lrf::version_info()}};
     std::printf("%s\n", out.dump(2).c_str());
   } else {
-    std::printf("mean over %zu images: PSNR %.2f dB, encode %.3f s, decode %.3f s (%d threads)\n", o.images.size(),
-                psnr_sum / n, enc_sum / n, dec_sum / n, lrf::thread_count());
+    std::printf("mean over %zu images: PSNR %.3f dB, encode %.3f s, decode %.3f s (%d threads, %s)\n",
+                o.images.size(), psnr_sum / n, enc_sum / n, dec_sum / n, lrf::thread_count(),
+                lrf::precision_name(ae->precision()).c_str());
   }
   return 0;
 }

@@ -10,6 +10,7 @@
 #include "lrf/core/allocator.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/precision.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/threads.h"
 
@@ -54,6 +55,10 @@ int main(int argc, char** argv) {
   bool log_json = false;
   app.add_option("--threads", threads, "Worker threads for every computation (0 = all cores)")
       ->capture_default_str();
+  std::string precision;
+  app.add_option("--precision", precision,
+                 "Arithmetic of the autoencoders: fp32, bf16, or auto (bf16 where the CPU has native bf16: "
+                 "AVX512_BF16 or AMX; fp32 elsewhere). Default: $LRF_PRECISION if set, else auto");
   app.add_flag("--quiet,-q", quiet, "Print only warnings and errors");
   app.add_flag("--log-json", log_json, "Print progress and log messages as JSON lines on stderr");
   app.require_subcommand(1);
@@ -86,6 +91,13 @@ int main(int argc, char** argv) {
 
   set_log_mode(log_json ? LogMode::json : quiet ? LogMode::quiet : LogMode::normal);
   set_thread_count(threads);
+  try {
+    if (!precision.empty()) set_default_precision(parse_precision(precision));
+    resolve_precision(default_precision());  // a bad $LRF_PRECISION or $LRF_CPU_BF16 is reported before any work
+  } catch (const lrf::Error& e) {
+    log_error(e.what());
+    return 2;
+  }
   for (auto& [command, run] : cli::runners()) {
     if (!command->parsed()) continue;
     bool leaf = true;

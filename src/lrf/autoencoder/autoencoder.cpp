@@ -61,8 +61,17 @@ at::Tensor Autoencoder::decode_global(const at::Tensor& latents) {
 
 at::Tensor Autoencoder::decode_local(const at::Tensor& features) { return decode_unclamped(features); }
 
-at::Tensor Autoencoder::to_layout(const at::Tensor& t) const {
-  return t.contiguous(channels_last_ ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous);
+void Autoencoder::set_precision(Precision p) { precision_ = resolve_precision(p); }
+
+at::Tensor Autoencoder::to_network(const at::Tensor& t) const {
+  // One pass for both conversions. The cast is differentiable: a float32 input gets a float32 gradient.
+  const auto dtype = precision_ == Precision::bf16 ? at::kBFloat16 : at::kFloat;
+  return t.to(dtype, /*non_blocking=*/false, /*copy=*/false,
+              channels_last_ ? at::MemoryFormat::ChannelsLast : at::MemoryFormat::Contiguous);
+}
+
+at::Tensor Autoencoder::from_network(const at::Tensor& t) {
+  return t.to(at::kFloat, /*non_blocking=*/false, /*copy=*/false, at::MemoryFormat::Contiguous);
 }
 
 void Autoencoder::check_images(const at::Tensor& images) const {

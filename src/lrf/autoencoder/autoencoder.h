@@ -4,12 +4,15 @@
 // input range inside); latents are "raw": exactly what the network's encoder outputs, no scaling.
 // Every module stays trainable: Stage I fine-tunes encoder_parameters() with the decoder frozen, Stage
 // III the reverse, and both call encode/decode under autograd.
+// Whatever precision the networks compute in (set_precision), every tensor that goes in or comes out
+// of these methods is float32, and so are the parameters and their gradients.
 #include <memory>
 #include <string>
 #include <vector>
 
 #include <torch/nn/module.h>
 
+#include "lrf/core/precision.h"
 #include "lrf/core/state_dict.h"
 
 namespace lrf {
@@ -63,6 +66,13 @@ class Autoencoder {
   // load_autoencoder. encode/decode always return contiguous (NCHW) tensors either way.
   void set_channels_last(bool on);
   bool channels_last() const { return channels_last_; }
+  // The arithmetic of both halves: fp32, or bf16 (convolutions in bf16 with float32 accumulation, on
+  // weights cast from their float32 parameters at each call; group norms, softmax and the outputs in
+  // float32). Precision::automatic is resolved here against this CPU (resolve_precision). Models built
+  // by load_autoencoder start at default_precision(), models constructed directly at fp32.
+  void set_precision(Precision p);
+  // fp32 or bf16 (never automatic).
+  Precision precision() const { return precision_; }
   // Where the weights came from (for logs and run records).
   const std::string& description() const { return description_; }
   void set_description(std::string d) { description_ = std::move(d); }
@@ -78,18 +88,21 @@ class Autoencoder {
   // Throws lrf::Error unless images are [B,3,H,W] with H, W positive multiples of 8.
   void check_images(const at::Tensor& images) const;
   void check_latents(const at::Tensor& latents) const;
-  // The network input in the layout chosen by set_channels_last.
-  at::Tensor to_layout(const at::Tensor& t) const;
+  // A float32 input in the dtype of set_precision and the layout of set_channels_last.
+  at::Tensor to_network(const at::Tensor& t) const;
+  // A network output back in float32 and contiguous (NCHW), in one pass.
+  static at::Tensor from_network(const at::Tensor& t);
 
  private:
   std::string description_;
   bool channels_last_ = false;
+  Precision precision_ = Precision::fp32;
 };
 
 // Loads an autoencoder by name ("taef2", "taesd", a folder name under a models directory) or by path
 // (a folder holding *encoder* and *decoder* weight files, or one weights file holding both halves),
 // chooses the architecture from the weights, and optionally replaces either half with a fine-tuned
-// checkpoint. See resolve.h for the search order.
+// checkpoint. See resolve.h for the search order. The model runs channels-last at default_precision().
 std::unique_ptr<Autoencoder> load_autoencoder(const std::string& name_or_path,
                                               const std::string& encoder_override = "",
                                               const std::string& decoder_override = "");

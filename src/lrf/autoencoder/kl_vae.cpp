@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/kl_vae_keys.h"
+#include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/autoencoder/strict_load.h"
 #include "lrf/core/error.h"
 
@@ -16,9 +17,9 @@ namespace {
 namespace nn = torch::nn;
 namespace F = torch::nn::functional;
 
-nn::GroupNorm norm(int channels) { return nn::GroupNorm(nn::GroupNormOptions(32, channels).eps(1e-6)); }
-nn::Conv2d conv(int in, int out, int k, int stride = 1, int pad = -1) {
-  return nn::Conv2d(nn::Conv2dOptions(in, out, k).stride(stride).padding(pad < 0 ? k / 2 : pad));
+MixedGroupNorm norm(int channels) { return MixedGroupNorm(nn::GroupNormOptions(32, channels).eps(1e-6)); }
+MixedConv2d conv(int in, int out, int k, int stride = 1, int pad = -1) {
+  return MixedConv2d(nn::Conv2dOptions(in, out, k).stride(stride).padding(pad < 0 ? k / 2 : pad));
 }
 
 struct ResnetBlockImpl : nn::Module {
@@ -34,8 +35,8 @@ struct ResnetBlockImpl : nn::Module {
     h = conv2(torch::silu(norm2(h)));
     return (nin_shortcut ? nin_shortcut(x) : x) + h;
   }
-  nn::GroupNorm norm1{nullptr}, norm2{nullptr};
-  nn::Conv2d conv1{nullptr}, conv2{nullptr}, nin_shortcut{nullptr};
+  MixedGroupNorm norm1{nullptr}, norm2{nullptr};
+  MixedConv2d conv1{nullptr}, conv2{nullptr}, nin_shortcut{nullptr};
 };
 TORCH_MODULE(ResnetBlock);
 
@@ -54,12 +55,15 @@ struct AttnBlockImpl : nn::Module {
     at::Tensor qs = q(h).reshape({b, c, hw}).transpose(1, 2);  // [b, hw, c]
     at::Tensor ks = k(h).reshape({b, c, hw});                   // [b, c, hw]
     at::Tensor vs = v(h).reshape({b, c, hw});                   // [b, c, hw]
-    at::Tensor w = torch::softmax(torch::bmm(qs, ks) / std::sqrt(static_cast<double>(c)), 2);  // [b, hw(q), hw(k)]
+    // The softmax in float32 (its sum over every position loses too much in bf16), the weights back in
+    // the compute dtype for the second product.
+    at::Tensor w = torch::softmax(torch::bmm(qs, ks) / std::sqrt(static_cast<double>(c)), 2, at::kFloat)
+                       .to(x.scalar_type());  // [b, hw(q), hw(k)]
     at::Tensor out = torch::bmm(vs, w.transpose(1, 2)).reshape(x.sizes());
     return x + proj_out(out);
   }
-  nn::GroupNorm norm_{nullptr};
-  nn::Conv2d q{nullptr}, k{nullptr}, v{nullptr}, proj_out{nullptr};
+  MixedGroupNorm norm_{nullptr};
+  MixedConv2d q{nullptr}, k{nullptr}, v{nullptr}, proj_out{nullptr};
 };
 TORCH_MODULE(AttnBlock);
 
@@ -67,7 +71,7 @@ TORCH_MODULE(AttnBlock);
 struct DownsampleImpl : nn::Module {
   explicit DownsampleImpl(int c) { conv_ = register_module("conv", conv(c, c, 3, 2, 0)); }
   at::Tensor forward(const at::Tensor& x) { return conv_(F::pad(x, F::PadFuncOptions({0, 1, 0, 1}))); }
-  nn::Conv2d conv_{nullptr};
+  MixedConv2d conv_{nullptr};
 };
 TORCH_MODULE(Downsample);
 
@@ -76,7 +80,7 @@ struct UpsampleImpl : nn::Module {
   at::Tensor forward(const at::Tensor& x) {
     return conv_(F::interpolate(x, F::InterpolateFuncOptions().scale_factor(std::vector<double>{2.0, 2.0}).mode(torch::kNearest)));
   }
-  nn::Conv2d conv_{nullptr};
+  MixedConv2d conv_{nullptr};
 };
 TORCH_MODULE(Upsample);
 
@@ -130,10 +134,10 @@ struct EncoderImpl : nn::Module {
     for (auto& l : *down) x = l->as<LevelImpl>()->forward(x);
     return conv_out(torch::silu(norm_out(mid(x))));
   }
-  nn::Conv2d conv_in{nullptr}, conv_out{nullptr};
+  MixedConv2d conv_in{nullptr}, conv_out{nullptr};
   nn::ModuleList down{nullptr};
   Mid mid{nullptr};
-  nn::GroupNorm norm_out{nullptr};
+  MixedGroupNorm norm_out{nullptr};
 };
 TORCH_MODULE(Encoder);
 
@@ -163,10 +167,10 @@ struct DecoderImpl : nn::Module {
     for (int i = static_cast<int>(up->size()) - 1; i >= 0; --i) x = (*up)[i]->as<LevelImpl>()->forward(x);
     return conv_out(torch::silu(norm_out(x)));
   }
-  nn::Conv2d conv_in{nullptr}, conv_out{nullptr};
+  MixedConv2d conv_in{nullptr}, conv_out{nullptr};
   nn::ModuleList up{nullptr};
   Mid mid{nullptr};
-  nn::GroupNorm norm_out{nullptr};
+  MixedGroupNorm norm_out{nullptr};
 };
 TORCH_MODULE(Decoder);
 
@@ -176,7 +180,7 @@ struct EncoderHalf : nn::Module {
     quant_conv = register_module("quant_conv", conv(2 * cfg.z_channels, 2 * cfg.z_channels, 1));
   }
   Encoder encoder{nullptr};
-  nn::Conv2d quant_conv{nullptr};
+  MixedConv2d quant_conv{nullptr};
 };
 
 struct DecoderHalf : nn::Module {
@@ -184,7 +188,7 @@ struct DecoderHalf : nn::Module {
     post_quant_conv = register_module("post_quant_conv", conv(cfg.z_channels, cfg.z_channels, 1));
     decoder = register_module("decoder", Decoder(cfg));
   }
-  nn::Conv2d post_quant_conv{nullptr};
+  MixedConv2d post_quant_conv{nullptr};
   Decoder decoder{nullptr};
 };
 
@@ -284,7 +288,7 @@ StateDict KLAutoencoder::decoder_keys(const StateDict& file) const {
 at::Tensor KLAutoencoder::encode_moments(const at::Tensor& images) {
   check_images(images);
   auto& e = static_cast<EncoderHalf&>(*encoder_);
-  at::Tensor moments = e.quant_conv(e.encoder(to_layout(images * 2 - 1))).contiguous();
+  at::Tensor moments = from_network(e.quant_conv(e.encoder(to_network(images * 2 - 1))));
   auto parts = moments.chunk(2, 1);
   return torch::cat({parts[0], parts[1].clamp(-30.0, 20.0)}, 1);
 }
@@ -301,8 +305,8 @@ at::Tensor KLAutoencoder::encode_sample(const at::Tensor& images) {
 at::Tensor KLAutoencoder::decode_unclamped(const at::Tensor& latents) {
   check_latents(latents);
   auto& d = static_cast<DecoderHalf&>(*decoder_);
-  at::Tensor x = d.decoder(d.post_quant_conv(to_layout(latents)));
-  return ((x + 1) * 0.5).contiguous();
+  at::Tensor x = from_network(d.decoder(d.post_quant_conv(to_network(latents))));
+  return (x + 1) * 0.5;
 }
 
 }  // namespace lrf

@@ -48,6 +48,7 @@ std::unique_ptr<Autoencoder> load_autoencoder(const std::string& name_or_path, c
     description += ", decoder " + decoder_override;
   }
   ae->set_channels_last(true);
+  ae->set_precision(default_precision());
   ae->set_description(description);
   return ae;
 }

@@ -5,6 +5,7 @@
 
 #include <torch/torch.h>
 
+#include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/autoencoder/strict_load.h"
 #include "lrf/core/error.h"
 
@@ -13,10 +14,10 @@ namespace {
 
 namespace nn = torch::nn;
 
-nn::Conv2d conv3(int in, int out, int stride = 1, bool bias = true) {
-  return nn::Conv2d(nn::Conv2dOptions(in, out, 3).stride(stride).padding(1).bias(bias));
+MixedConv2d conv3(int in, int out, int stride = 1, bool bias = true) {
+  return MixedConv2d(nn::Conv2dOptions(in, out, 3).stride(stride).padding(1).bias(bias));
 }
-nn::Conv2d conv1(int in, int out) { return nn::Conv2d(nn::Conv2dOptions(in, out, 1).bias(false)); }
+MixedConv2d conv1(int in, int out) { return MixedConv2d(nn::Conv2dOptions(in, out, 1).bias(false)); }
 nn::ReLU relu_inplace() { return nn::ReLU(nn::ReLUOptions().inplace(true)); }
 
 // Residual block: relu(conv(x) + x), three 3x3 convs with ReLUs between them; optionally preceded by
@@ -32,7 +33,7 @@ struct TinyBlockImpl : nn::Module {
       // public taesd.py FLUX.2 variant's choice, and the round-trip PSNR on fern confirms it (other
       // counts reconstruct measurably worse; see the issue note).
       const int wide = channels * 4;
-      pool = register_module("pool", nn::Sequential(conv1(channels, wide), nn::GroupNorm(nn::GroupNormOptions(4, wide)),
+      pool = register_module("pool", nn::Sequential(conv1(channels, wide), MixedGroupNorm(nn::GroupNormOptions(4, wide)),
                                                     nn::ReLU(), conv1(wide, channels)));
     }
   }
@@ -148,7 +149,7 @@ void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>&
   for (size_t i = decoder_split_; i < decoder_->size(); ++i) {
     const auto& m = decoder_->ptr(i);
     if (m->as<nn::Upsample>()) scale *= 2;
-    if (m->as<nn::Conv2d>()) reach += 1 / scale;
+    if (m->as<MixedConv2d>()) reach += 1 / scale;
     if (const auto* b = m->as<TinyBlock>()) {
       if (b->pool) fail("tiny autoencoder: a group-norm block after the decoder's split");
       reach += 3 / scale;
@@ -159,24 +160,26 @@ void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>&
 
 at::Tensor TinyAutoencoder::encode(const at::Tensor& images) {
   check_images(images);
-  return encoder_->forward(to_layout(images)).contiguous();
+  return from_network(encoder_->forward(to_network(images)));
 }
 
 at::Tensor TinyAutoencoder::decode_unclamped(const at::Tensor& latents) {
   check_latents(latents);
-  return decoder_->forward(to_layout(latents)).contiguous();
+  return from_network(decoder_->forward(to_network(latents)));
 }
 
 at::Tensor TinyAutoencoder::decode_global(const at::Tensor& latents) {
   check_latents(latents);
-  return run_layers(*decoder_, 0, decoder_split_, to_layout(latents));
+  // Handed back in float32 like every output; decode_local's cast back to bf16 is exact, so the split
+  // still decodes exactly as decode_unclamped does.
+  return from_network(run_layers(*decoder_, 0, decoder_split_, to_network(latents)));
 }
 
 at::Tensor TinyAutoencoder::decode_local(const at::Tensor& features) {
   if (features.dim() != 4 || features.size(1) != (decoder_split_ == 0 ? latent_channels_ : 64)) {
     fail("tiny autoencoder: decode_local takes decode_global's features, got " + std::string(c10::str(features.sizes())));
   }
-  return run_layers(*decoder_, decoder_split_, decoder_->size(), to_layout(features)).contiguous();
+  return from_network(run_layers(*decoder_, decoder_split_, decoder_->size(), to_network(features)));
 }
 
 StateDict TinyAutoencoder::encoder_keys(const StateDict& file) const {

@@ -7,7 +7,9 @@
 
 #include "lrf/build_info.h"
 #include "lrf/core/atomic_file.h"
+#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
+#include "lrf/core/precision.h"
 #include "lrf/core/threads.h"
 #include "lrf/splat/raster/raster_kernels.h"
 
@@ -31,7 +33,12 @@ nlohmann::json version_info() {
           {"threads", thread_count()},
           // Pixels composited at a time (8 with AVX2, 4 with SSE2): images do not depend on it, but
           // gradients round differently, so a run reproduces exactly only at the same width.
-          {"compositing_lanes", splat::raster_vector_width()}};
+          {"compositing_lanes", splat::raster_vector_width()},
+          // What the autoencoders computed in (fp32 or bf16: outputs differ by bf16 rounding), what was
+          // asked for (fp32, bf16 or auto), and whether the CPU has native bf16 (what auto decides on).
+          {"autoencoder_precision", precision_name(resolve_precision(default_precision()))},
+          {"autoencoder_precision_requested", precision_name(default_precision())},
+          {"cpu_bf16", cpu_has_bf16()}};
 }
 
 std::string version_string() {

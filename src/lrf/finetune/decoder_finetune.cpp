@@ -127,13 +127,16 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
       fail(ckpt, "was written with different options; resume with the same fields, model, batch, crop, weights, "
                  "learning rate and seed");
     }
+    warn_if_precision_changed(meta, ae->precision(), ckpt);
     log_info("resuming from " + ckpt + " at step " + std::to_string(adam.steps()));
   }
   log_info("Stage III: " + ae->description() + ", " + std::to_string(train.size()) + " training and " +
            std::to_string(novel.size()) + " held-out rendered views, " + std::to_string(o.batch) + "+" +
            std::to_string(o.batch) + " crops of " + std::to_string(crop) + " px per step, Adam lr " +
            std::to_string(adam.lr()));
-  auto save_checkpoint = [&] { adam.save(ckpt, {{"lrf_kind", "finetune-decoder"}, {"lrf_resume_key", key}}); };
+  auto save_checkpoint = [&] {
+    adam.save(ckpt, {{"lrf_kind", "finetune-decoder"}, {"lrf_resume_key", key}, precision_metadata(ae->precision())});
+  };
 
   DecoderFinetuneResult r;
   r.train_samples = static_cast<int64_t>(train.size());
@@ -177,6 +180,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   record["autoencoder_identity"] = autoencoder_identity(o.autoencoder, o.encoder);
   record["crop_used"] = crop;
   record["adam_lr"] = adam.lr();
+  record["precision"] = precision_name(ae->precision());
   record["result"] = {{"steps", r.steps},
                       {"train_samples", r.train_samples},
                       {"novel_samples", r.novel_samples},

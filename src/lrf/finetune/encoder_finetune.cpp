@@ -159,13 +159,17 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
       fail(ckpt, "was written with different options; resume with the same scenes, model, batch, crop, lambdas, "
                  "learning rate and seed (checkpoint: " + meta["lrf_resume_key"] + ")");
     }
+    warn_if_precision_changed(meta, model->precision(), ckpt);
     start = adam.steps();
     log_info("resuming from " + ckpt + " at step " + std::to_string(start));
   }
-  log_info("Stage I: " + model->description() + ", " + std::to_string(o.batch.pairs) + " pairs of " +
+  log_info("Stage I: " + model->description() + " in " + precision_name(model->precision()) + ", " +
+           std::to_string(o.batch.pairs) + " pairs of " +
            std::to_string(side) + "x" + std::to_string(side) + " crops per step, Adam lr " + std::to_string(adam.lr()));
 
-  auto save_checkpoint = [&] { adam.save(ckpt, {{"lrf_kind", "finetune-encoder"}, {"lrf_resume_key", key}}); };
+  auto save_checkpoint = [&] {
+    adam.save(ckpt, {{"lrf_kind", "finetune-encoder"}, {"lrf_resume_key", key}, precision_metadata(model->precision())});
+  };
   EncoderFinetuneResult result;
   Progress progress("finetune-encoder", o.steps, 2.0, start);
   const auto t0 = std::chrono::steady_clock::now();
@@ -195,6 +199,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   record["autoencoder_identity"] = autoencoder_identity(o.autoencoder, o.encoder);
   record["crop_used"] = side;
   record["adam_lr"] = adam.lr();
+  record["precision"] = precision_name(model->precision());
   record["result"] = {{"steps", result.steps},
                       {"seconds_this_session", result.seconds},
                       {"loss", result.last_total},

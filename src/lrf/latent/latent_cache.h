@@ -1,7 +1,8 @@
 #pragma once
 // Stage II encodes every view once. The latents are cached on disk, keyed by everything they depend on:
 // the scene folder, each view's image file (size and modification time), the resolution and crop, and
-// the autoencoder's weight files (path, size, modification time) and fine-tuned encoder. A change to any
+// the autoencoder's weight files (path, size, modification time), fine-tuned encoder and precision (fp32
+// or bf16; the file holds float32 latents either way). A change to any
 // of them is a different key; a cache file whose recorded key differs or that cannot be read is
 // rebuilt with a warning.
 #include <string>

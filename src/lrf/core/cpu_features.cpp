@@ -1,0 +1,65 @@
+#include "lrf/core/cpu_features.h"
+
+#include <cstdint>
+#include <cstdlib>
+#include <string>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <cpuid.h>
+#endif
+
+#include "lrf/core/error.h"
+
+namespace lrf {
+namespace {
+
+#if defined(__x86_64__) || defined(__i386__)
+// XCR0: the register state the OS saves on a context switch. The instructions fault (or their
+// registers get clobbered) unless the OS enabled the state they use.
+uint64_t xcr0() {
+  uint32_t eax = 0, ebx = 0, ecx = 0, edx = 0;
+  if (!__get_cpuid(1, &eax, &ebx, &ecx, &edx) || !(ecx & (1u << 27))) return 0;  // no OSXSAVE
+  uint32_t lo = 0, hi = 0;
+  __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));  // inline: no -mxsave for this file
+  return (static_cast<uint64_t>(hi) << 32) | lo;
+}
+
+bool detect() {
+  uint32_t eax = 0, ebx = 0, ecx = 0, edx = 0;
+  if (!__get_cpuid_count(7, 0, &eax, &ebx, &ecx, &edx)) return false;
+  const uint32_t max_subleaf = eax;
+  const uint64_t os = xcr0();
+  // AVX-512 state: SSE, AVX, opmask, ZMM upper halves, ZMM16-31 (bits 1, 2, 5, 6, 7).
+  const bool os_avx512 = (os & 0xE6) == 0xE6;
+  // AMX state: TILECFG and TILEDATA (bits 17, 18). Linux also wants a per-process permission request,
+  // which oneDNN makes itself before using the tiles.
+  const bool os_amx = (os & 0x60000) == 0x60000;
+  const bool avx512_core = (ebx & (1u << 16)) && (ebx & (1u << 17)) && (ebx & (1u << 30)) && (ebx & (1u << 31));
+  const bool amx_bf16 = (edx & (1u << 22)) != 0;
+  if (amx_bf16 && os_amx && avx512_core && os_avx512) return true;
+  if (max_subleaf < 1 || !avx512_core || !os_avx512) return false;
+  if (!__get_cpuid_count(7, 1, &eax, &ebx, &ecx, &edx)) return false;
+  return (eax & (1u << 5)) != 0;  // AVX512_BF16
+}
+#else
+bool detect() { return false; }
+#endif
+
+}  // namespace
+
+bool cpu_reports_bf16() {
+  static const bool has = detect();
+  return has;
+}
+
+bool cpu_has_bf16() {
+  if (const char* env = std::getenv("LRF_CPU_BF16"); env && *env) {
+    const std::string v = env;
+    if (v == "0") return false;
+    if (v == "1") return true;
+    fail("LRF_CPU_BF16 must be 0 or 1, got '" + v + "'");
+  }
+  return cpu_reports_bf16();
+}
+
+}  // namespace lrf

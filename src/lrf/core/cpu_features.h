@@ -1,0 +1,15 @@
+#pragma once
+// What the CPU can run, asked at run time (the build targets baseline x86-64).
+namespace lrf {
+
+// Whether the CPU multiplies bf16 matrices natively, which is what makes bf16 convolutions fast in
+// oneDNN: AVX512_BF16 (with AVX-512 F/BW/VL/DQ, Cooper Lake, Zen 4 and later) or AMX-BF16 (Sapphire
+// Rapids and later), in both cases with the OS saving the registers. Without them oneDNN emulates bf16
+// (AVX-512 only) or libtorch falls back to slow reference kernels, both slower than fp32.
+// $LRF_CPU_BF16=0 or =1 overrides the answer (tests simulate a CPU without BF16 with it).
+bool cpu_has_bf16();
+
+// The same answer from the CPU alone, ignoring $LRF_CPU_BF16 (for logs).
+bool cpu_reports_bf16();
+
+}  // namespace lrf
