@@ -71,8 +71,11 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   const auto dec_time = fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors");
   const std::string refined = dir / "run/fields/" + fs::path(o.eval_scenes[0]).filename().string() + "-ft-refined";
   const auto refined_time = fs::last_write_time(refined + "/point_cloud.ply");
-  // The both+refine field went through the Stage III decoder, and its row is decoded by it.
-  EXPECT_EQ(lrf::read_json_file(refined + "/config.json")["decoder"], dir / "run/stage3/decoder-ft.safetensors");
+  // The both+refine field was refined through the Stage III decoder, which adapted to the scene with it
+  // (the default), and its row is decoded by that adapted decoder.
+  const nlohmann::json refined_config = lrf::read_json_file(refined + "/config.json");
+  EXPECT_EQ(refined_config["refine_source_decoder"], dir / "run/stage3/decoder-ft.safetensors");
+  EXPECT_EQ(refined_config["decoder"], fs::absolute(refined + "/decoder.safetensors").lexically_normal().string());
   lrf::run_pipeline(o);
   EXPECT_EQ(fs::last_write_time(dir / "run/stage1/encoder.safetensors"), enc_time);
   EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);

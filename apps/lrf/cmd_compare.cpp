@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "command.h"
+#include "refine_options.h"
 #include "init_points_options.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/compare/compare.h"
@@ -31,14 +32,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "Methods to run: rgb (full resolution), rgb/8, rgb/8-mip (RGB fields on 8x downscaled views), latent, "
                   "latent-refined (the latent field refined through the decoder against the training images)")
       ->capture_default_str();
-  cmd->add_option("--refine-steps", o->refine.steps, "latent-refined: refinement steps")->capture_default_str();
-  cmd->add_option("--refine-crop", o->refine.crop, "latent-refined: supervised square per step in pixels (0 = whole view)")
-      ->capture_default_str();
-  cmd->add_option("--refine-lr-scale", o->refine.lr_scale, "latent-refined: multiplies Stage II's learning rates")
-      ->capture_default_str();
-  cmd->add_option("--refine-decoder-lr", o->refine.decoder_lr,
-                  "latent-refined: also adapt the decoder to the scene's training views at this Adam rate (0 = frozen)")
-      ->capture_default_str();
+  lrf::cli::add_refine_options(cmd, &o->refine, "latent-refined");
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "command.h"
+#include "refine_options.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/pipeline/pipeline.h"
 
@@ -46,14 +47,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--seed", o->seed, "Seed of every stage")->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS (v0.1 VGG) weights; without them LPIPS is not computed");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default: $LRF_CACHE or ~/.cache/lrf)");
-  cmd->add_option("--refine-steps", o->refine.steps, "Steps of each refinement (the +refine rows)")->capture_default_str();
-  cmd->add_option("--refine-crop", o->refine.crop, "Refinement: supervised square per step in pixels (0 = whole view)")
-      ->capture_default_str();
-  cmd->add_option("--refine-lr-scale", o->refine.lr_scale, "Refinement: multiplies Stage II's learning rates")
-      ->capture_default_str();
-  cmd->add_option("--refine-decoder-lr", o->refine.decoder_lr,
-                  "Refinement: also adapt each decoder to the scene's training views at this Adam rate (0 = frozen)")
-      ->capture_default_str();
+  lrf::cli::add_refine_options(cmd, &o->refine, "the +refine rows");
   cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the image-space baselines (rgb/8, rgb/8-mip, and rgb if asked)");
   cmd->add_flag("--rgb-full", o->rgb_full,
                 "Add the rgb row: an RGB field at full resolution (an upper reference; the costliest field to train)");

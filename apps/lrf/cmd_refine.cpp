@@ -10,10 +10,11 @@ namespace {
 lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   auto* cmd = root.add_subcommand(
       "refine",
-      "Refine a fitted latent field through the (frozen) decoder: keep optimising its Gaussians so that their "
-      "rendered latents decode into the scene's training images at full resolution (3DGS's 0.8 L1 + 0.2 D-SSIM "
-      "image loss). Writes a new latent run to OUT that `lrf eval` / `render` decode with the same decoder; "
-      "checkpoints, progress, --resume");
+      "Refine a fitted latent field through the decoder: keep optimising (and densifying) its Gaussians so that "
+      "their rendered latents decode into the scene's training images at full resolution (3DGS's 0.8 L1 + 0.2 "
+      "D-SSIM image loss), by default adapting the decoder to those views with them. Writes a new latent run to "
+      "OUT that `lrf eval` / `render` decode with the decoder it was refined through; checkpoints, progress, "
+      "--resume");
   auto o = std::make_shared<lrf::RefineOptions>();
   cmd->add_option("run", o->run, "A finished latent field (`lrf train --space latent` folder)")->required();
   cmd->add_option("-o,--out", o->out, "Output folder of the refined field")->required();
@@ -35,6 +36,19 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   cmd->add_option("--decoder-lr", o->decoder_lr,
                   "Also adapt the decoder to this scene's training views, with Adam at this rate (0 = frozen); the "
                   "adapted decoder is written to OUT/decoder.safetensors and decodes the refined field")
+      ->capture_default_str();
+  cmd->add_option("--lambda-latent", o->lambda_latent,
+                  "Weight of an L1 term holding the rendered latent near the encoded training view (normalised "
+                  "latent space; 0 = image loss only)")
+      ->capture_default_str();
+  cmd->add_option("--densify-until", o->densify_until,
+                  "Keep cloning / splitting Gaussians (3DGS's rule on the image loss's gradient) until this step "
+                  "(0 = the field's size stays as Stage II left it)")
+      ->capture_default_str();
+  cmd->add_option("--densify-interval", o->densify_interval, "Steps between densifications (with --densify-until)")
+      ->capture_default_str();
+  cmd->add_option("--densify-grad", o->densify_grad,
+                  "Mean screen-space gradient above which a Gaussian is cloned or split (with --densify-until)")
       ->capture_default_str();
   cmd->add_option("--lambda-ssim", o->lambda_ssim, "Weight of the D-SSIM term of the image loss")->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the view order and window positions")->capture_default_str();

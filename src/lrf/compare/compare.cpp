@@ -163,8 +163,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        "(the paper's 3DGS/8 and Mip-Splatting/8); latent: a latent field with the " +
                        o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE). " + std::to_string(o.iters) +
                        " iterations. rgb: RGB 3D Gaussian splatting on the full-resolution views. latent-refined: "
-                       "the latent field refined through the decoder against the training images (lrf refine, " +
-                       std::to_string(o.refine.steps) + " steps).");
+                       "the latent field refined through the decoder against the training images (lrf refine: " +
+                       refine_description(o.refine) + ").");
   if (!all.empty() && all.begin()->value("lpips", nlohmann::json()).is_null())
     spec.notes.push_back("LPIPS not computed: pass --lpips-weights with the lpips v0.1 VGG weights.");
   spec.max_image_side = 640;

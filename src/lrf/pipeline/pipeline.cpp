@@ -428,7 +428,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        "decoder; encoder = Stage I encoder; decoder = Stage III decoder fine-tuned on stock-encoder "
                        "fields; both = Stage I encoder and the decoder fine-tuned on its fields. stock+refine and "
                        "both+refine: those fields refined through their decoder against the scene's training images "
-                       "(lrf refine, " + std::to_string(o.refine.steps) + " steps). Image-space baselines: rgb/8 and "
+                       "(lrf refine: " + refine_description(o.refine) + "). Image-space baselines: rgb/8 and "
                        "rgb/8-mip = RGB 3DGS and Mip-Splatting trained at latent resolution (the paper's 3DGS/8 and "
                        "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. delta_psnr is against the stock row.");
   write_html_report((fs::path(o.out) / "report.html").string(), spec);

@@ -1,7 +1,9 @@
 #include "lrf/refine/refine.h"
 
 #include <filesystem>
+#include <limits>
 #include <memory>
+#include <sstream>
 
 #include <torch/torch.h>
 
@@ -39,6 +41,10 @@ void check_options(const RefineOptions& o) {
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
   if (!(o.decoder_lr >= 0)) fail("refine: --decoder-lr must be 0 (frozen decoder) or positive");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail("refine: --lambda-ssim must be in [0, 1]");
+  if (!(o.lambda_latent >= 0)) fail("refine: --lambda-latent must be 0 or positive");
+  if (o.densify_until < 0 || o.densify_interval < 1 || !(o.densify_grad > 0))
+    fail("refine: --densify-until must be 0 (no densification) or a step, --densify-interval at least 1 and "
+         "--densify-grad positive");
 }
 
 // Seeds of the window stream; the trainer's own streams (view order) use other ones.
@@ -50,11 +56,24 @@ uint64_t window_seed(uint64_t seed, int64_t step) {
 
 }  // namespace
 
+std::string refine_description(const RefineOptions& o) {
+  std::ostringstream s;
+  s << o.steps << " steps";
+  if (o.crop > 0) s << " on " << o.crop << " px windows";
+  if (o.decoder_lr > 0) s << ", decoder adapted at Adam rate " << o.decoder_lr;
+  else s << ", frozen decoder";
+  if (o.densify_until > 0) s << ", densified until step " << o.densify_until;
+  if (o.lambda_latent > 0) s << ", latent anchor weight " << o.lambda_latent;
+  return s.str();
+}
+
 nlohmann::json refine_options_json(const RefineOptions& o) {
   return {{"run", o.run},         {"out", o.out},           {"decoder", o.decoder},
           {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
           {"position_lr", o.position_lr}, {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
-          {"decoder_lr", o.decoder_lr}, {"seed", o.seed},
+          {"decoder_lr", o.decoder_lr}, {"lambda_latent", o.lambda_latent},
+          {"densify_until", o.densify_until}, {"densify_interval", o.densify_interval},
+          {"densify_grad", o.densify_grad}, {"seed", o.seed},
           {"checkpoint_every", o.checkpoint_every}, {"resume", o.resume}, {"force", o.force}};
 }
 
@@ -102,6 +121,13 @@ RefineResult refine_latent_field(const RefineOptions& o) {
     images.push_back(image_to_batch(src.scene.load_image(i))[0].contiguous());
     views.push_back({v.name, latent_camera(v.camera), images.back()});
   }
+  // The encoded training views, normalised with the field's range, for --lambda-latent.
+  std::vector<torch::Tensor> anchors;
+  if (o.lambda_latent > 0) {
+    auto encoded = encode_views_cached(src.scene, src.scene.train_indices, *ae,
+                                       autoencoder_identity(src.autoencoder, src.encoder), default_cache_dir());
+    for (const auto& z : encoded.latents) anchors.push_back(src.range.normalize(z).contiguous());
+  }
   const auto& c0 = views.front().camera;
   log_info("refining " + o.run + " (" + std::to_string(src.field.size()) + " Gaussians) through " +
            (decoder.empty() ? ae->description() + "'s decoder" : decoder) + " on " + std::to_string(views.size()) +
@@ -115,9 +141,14 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   to.seed = o.seed;
   to.background = src.render.background;
   // The field's size and SH degree stay as Stage II left them: no densification, no opacity reset.
-  to.schedule.from = 0;
-  to.schedule.until = 0;
+  // The SH degree stays as Stage II left it, and there is no opacity reset (it would undo the fit the
+  // refinement starts from); the field grows only if asked to.
+  to.schedule.from = o.densify_until > 0 ? o.densify_interval : 0;
+  to.schedule.until = o.densify_until;
+  to.schedule.interval = o.densify_interval;
+  to.schedule.opacity_reset_every = std::numeric_limits<int64_t>::max();
   to.schedule.sh_degree_every = 1;
+  to.densify.grad_threshold = o.densify_grad;
   LearningRates lr;
   lr.position_init = o.position_lr;
   lr.position_final = o.position_lr * o.lr_final;
@@ -133,7 +164,9 @@ RefineResult refine_latent_field(const RefineOptions& o) {
     std::mt19937_64 rng(window_seed(o.seed, step));
     const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
     DecodedLoss d = decoded_loss(*ae, src.range, rendered, image, win, o.lambda_ssim);
-    return ObjectiveValue{d.loss, psnr(d.decoded, d.target)};
+    torch::Tensor loss = d.loss;
+    if (o.lambda_latent > 0) loss = loss + o.lambda_latent * (rendered - anchors[static_cast<size_t>(view)]).abs().mean();
+    return ObjectiveValue{loss, psnr(d.decoded, d.target)};
   };
   const double extent = src.config.value("extent", src.scene.camera_extent());
 

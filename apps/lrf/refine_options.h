@@ -1,0 +1,29 @@
+#pragma once
+// The refinement's options as `compare` and `pipeline` expose them (--refine-*), for the refined rows
+// they add; `lrf refine` itself has the same options without the prefix.
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "lrf/refine/refine.h"
+
+namespace lrf::cli {
+
+// `rows` names the rows the options apply to in the help text (e.g. "latent-refined").
+inline void add_refine_options(CLI::App* cmd, RefineOptions* o, const std::string& rows) {
+  const std::string p = rows + ": ";
+  cmd->add_option("--refine-steps", o->steps, p + "refinement steps (one training view each)")->capture_default_str();
+  cmd->add_option("--refine-crop", o->crop, p + "supervised square per step in pixels (0 = whole view)")
+      ->capture_default_str();
+  cmd->add_option("--refine-lr-scale", o->lr_scale, p + "multiplies Stage II's learning rates")->capture_default_str();
+  cmd->add_option("--refine-decoder-lr", o->decoder_lr,
+                  p + "Adam rate at which the decoder adapts to the scene's training views with the field "
+                      "(0 = frozen decoder)")
+      ->capture_default_str();
+  cmd->add_option("--refine-densify-until", o->densify_until,
+                  p + "keep cloning / splitting Gaussians on the image loss's gradient until this step (0 = the "
+                      "field keeps Stage II's Gaussians)")
+      ->capture_default_str();
+}
+
+}  // namespace lrf::cli
