@@ -162,6 +162,24 @@ class RefineRun : public ::testing::Test {
     r.densify_until = 0;
     return r;
   }
+  // Runs `o` to `first` steps (checkpointing there), then resumes it to o.steps.
+  static void refine_interrupted_at(lrf::RefineOptions o, int64_t first) {
+    const int64_t steps = o.steps;
+    o.steps = first;
+    o.checkpoint_every = first;
+    lrf::refine_latent_field(o);
+    o.steps = steps;
+    o.resume = true;
+    lrf::refine_latent_field(o);
+  }
+  // The two runs' fields are the same bit for bit.
+  static void expect_same_field(const std::string& a_out, const std::string& b_out) {
+    auto a = lrf::splat::read_ply(*dir_ / (a_out + "/point_cloud.ply"), 32);
+    auto b = lrf::splat::read_ply(*dir_ / (b_out + "/point_cloud.ply"), 32);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_TRUE(torch::equal(a.means, b.means));
+    EXPECT_TRUE(torch::equal(a.sh, b.sh));
+  }
   static lrf::test::TempDir* dir_;
 };
 lrf::test::TempDir* RefineRun::dir_ = nullptr;
@@ -190,18 +208,12 @@ TEST_F(RefineRun, ResumedWindowedRunEqualsUninterruptedRun) {
   auto whole = options("uninterrupted", 40);
   whole.crop = 48;
   lrf::refine_latent_field(whole);
-  auto part = options("interrupted", 20);
+  auto part = options("interrupted", 40);
   part.crop = 48;
-  lrf::refine_latent_field(part);
-  part.steps = 40;
-  part.resume = true;
-  lrf::refine_latent_field(part);
-  auto a = lrf::splat::read_ply(*dir_ / "uninterrupted/point_cloud.ply", 32);
-  auto b = lrf::splat::read_ply(*dir_ / "interrupted/point_cloud.ply", 32);
-  ASSERT_EQ(a.size(), b.size());
-  EXPECT_TRUE(torch::equal(a.sh, b.sh));
-  EXPECT_TRUE(torch::equal(a.means, b.means));
+  refine_interrupted_at(part, 20);
+  expect_same_field("uninterrupted", "interrupted");
   // Another option on resume is refused.
+  part.resume = true;
   part.lr_scale = 2;
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(part); }).find("other options"), std::string::npos);
 }
@@ -213,14 +225,9 @@ TEST_F(RefineRun, AdaptedDecoderIsSavedUsedAndResumedExactly) {
   whole.decoder_lr = 1e-4;
   whole.crop = 48;
   lrf::refine_latent_field(whole);
-  auto part = options("adapt_part", 6);
-  part.decoder_lr = 1e-4;
-  part.crop = 48;
-  part.checkpoint_every = 3;
-  lrf::refine_latent_field(part);
-  part.steps = 12;
-  part.resume = true;
-  lrf::refine_latent_field(part);
+  auto part = whole;
+  part.out = *dir_ / "adapt_part";
+  refine_interrupted_at(part, 6);
   const std::string dec_whole = *dir_ / "adapt_whole/decoder.safetensors";
   const std::string dec_part = *dir_ / "adapt_part/decoder.safetensors";
   ASSERT_TRUE(fs::exists(dec_whole));
@@ -233,8 +240,7 @@ TEST_F(RefineRun, AdaptedDecoderIsSavedUsedAndResumedExactly) {
     changed += !torch::equal(item.value(), ds[item.key()]);
   }
   EXPECT_GT(changed, 0);
-  EXPECT_TRUE(torch::equal(lrf::splat::read_ply(*dir_ / "adapt_whole/point_cloud.ply", 32).sh,
-                           lrf::splat::read_ply(*dir_ / "adapt_part/point_cloud.ply", 32).sh));
+  expect_same_field("adapt_whole", "adapt_part");
   lrf::LatentRun run = lrf::open_latent_run(*dir_ / "adapt_whole");
   EXPECT_EQ(fs::weakly_canonical(run.decoder), fs::weakly_canonical(dec_whole));
   EXPECT_EQ(lrf::evaluate_latent_run(*dir_ / "adapt_whole", {})["decoder"], run.decoder);
@@ -253,17 +259,8 @@ TEST_F(RefineRun, DensifiedRunGrowsAndResumesExactly) {
   EXPECT_GT(r.gaussians, before);
   auto part = whole;
   part.out = *dir_ / "dens_part";
-  part.steps = 6;
-  part.checkpoint_every = 6;
-  lrf::refine_latent_field(part);
-  part.steps = 12;
-  part.resume = true;
-  lrf::refine_latent_field(part);
-  auto a = lrf::splat::read_ply(*dir_ / "dens_whole/point_cloud.ply", 32);
-  auto b = lrf::splat::read_ply(*dir_ / "dens_part/point_cloud.ply", 32);
-  ASSERT_EQ(a.size(), b.size());
-  EXPECT_TRUE(torch::equal(a.means, b.means));
-  EXPECT_TRUE(torch::equal(a.sh, b.sh));
+  refine_interrupted_at(part, 6);
+  expect_same_field("dens_whole", "dens_part");
 }
 
 // Mean |rendered - encoded| over the training views, in the field's normalised latent space.
