@@ -140,7 +140,6 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   to.sh_degree = src.render.sh_degree;
   to.seed = o.seed;
   to.background = src.render.background;
-  // The field's size and SH degree stay as Stage II left them: no densification, no opacity reset.
   // The SH degree stays as Stage II left it, and there is no opacity reset (it would undo the fit the
   // refinement starts from); the field grows only if asked to.
   to.schedule.from = o.densify_until > 0 ? o.densify_interval : 0;
