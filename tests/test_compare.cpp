@@ -67,6 +67,10 @@ TEST(Compare, ReusesFinishedMethodsAndFinishesInterruptedOnesBeforeScoring) {
   }
   const std::string table = lrf::read_file(dir / "cmp/table.csv");
   EXPECT_EQ(table.find("-1"), std::string::npos) << table;
+  EXPECT_EQ(table.rfind("method,psnr,ssim,ms_ssim,flip,lpips,", 0), 0u) << table;
+  const double flip = lrf::read_json_file((cmp / "latent" / "metrics.json").string()).value("flip", -1.0);
+  EXPECT_GT(flip, 0.0);
+  EXPECT_LT(flip, 1.0);
 }
 
 }  // namespace

@@ -17,6 +17,10 @@ TEST(EvalScores, ScoresAViewAndAveragesPerImage) {
   EXPECT_NEAR(a.psnr, 20.0, 1e-4);
   EXPECT_NEAR(b.psnr, 40.0, 1e-4);
   EXPECT_FALSE(a.lpips.has_value());
+  // 32x32 is too small for MS-SSIM's five scales; FLIP of a uniform grey shift is above zero.
+  EXPECT_FALSE(a.ms_ssim.has_value());
+  EXPECT_GT(a.flip, b.flip);
+  EXPECT_GT(b.flip, 0.0);
   auto mean = lrf::mean_scores({a, b});
   // The mean of per-image PSNRs (30 dB), not the PSNR of the mean MSE (≈ 22.97 dB).
   EXPECT_NEAR(mean.psnr, 30.0, 1e-4);
@@ -24,6 +28,8 @@ TEST(EvalScores, ScoresAViewAndAveragesPerImage) {
   auto json = lrf::scores_json(mean);
   EXPECT_TRUE(json["lpips"].is_null());
   EXPECT_NEAR(json["psnr"].get<double>(), 30.0, 1e-4);
+  EXPECT_TRUE(json["ms_ssim"].is_null());
+  EXPECT_NEAR(json["flip"].get<double>(), (a.flip + b.flip) / 2, 1e-12);
   // LPIPS is averaged only when every view has it.
   a.lpips = 0.2;
   EXPECT_FALSE(lrf::mean_scores({a, b}).lpips.has_value());

@@ -49,6 +49,7 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   }
   const std::string csv = lrf::read_file(dir / "run/ablation.csv");
   for (const auto& row : lrf::ablation_rows()) EXPECT_NE(csv.find("," + row + ","), std::string::npos) << row;
+  EXPECT_EQ(csv.rfind("scene,method,psnr,delta_psnr,ssim,ms_ssim,flip,lpips,", 0), 0u) << csv;
 
   // No leakage: what Stage I and both Stage III runs were trained on, from their own records, never
   // includes an evaluation scene, and is exactly the training scenes.

@@ -1,4 +1,4 @@
-// lrf eval: PSNR and SSIM of a trained field on the scene's test views.
+// lrf eval: PSNR, SSIM, MS-SSIM and FLIP of a trained field on the scene's test views.
 #include <filesystem>
 #include <memory>
 
@@ -9,8 +9,8 @@
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
+#include "lrf/eval/scores.h"
 #include "lrf/splat/run/run_folder.h"
-#include "lrf/splat/train/loss.h"
 #include "lrf/rgb/rgb_field.h"
 
 namespace fs = std::filesystem;
@@ -30,7 +30,8 @@ int run_eval_latent(const EvalOptions& o) {
   le.decoder = o.decoder;
   le.lpips_weights = o.lpips_weights;
   auto m = lrf::evaluate_latent_run(o.out, le);
-  nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"lpips", m["lpips"]},
+  nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
+                          {"lpips", m["lpips"]},
                           {"roundtrip_psnr", m["roundtrip_psnr"]}, {"latent_psnr", m["latent_psnr"]},
                           {"views", m["views"].size()}};
   std::printf("%s\n", brief.dump().c_str());
@@ -46,7 +47,7 @@ int run_eval(const EvalOptions& o) {
   auto run = open_field_run(o.out);
   if (run.scene.test_indices.empty()) fail(o.out, "the scene has no test views");
   nlohmann::json views = nlohmann::json::array();
-  double psnr_sum = 0, ssim_sum = 0;
+  std::vector<ImageScores> scores;
   Progress progress("eval", static_cast<long>(run.scene.test_indices.size()));
   long done = 0;
   int width = 0, height = 0;
@@ -59,22 +60,27 @@ int run_eval(const EvalOptions& o) {
     cv::Mat truth = run.scene.load_image(i);
     if (truth.cols != camera.width || truth.rows != camera.height)
       truth = resize_area(truth, camera.width, camera.height);
-    auto target = image_to_tensor(truth);
-    const double p = psnr(image, target);
-    const double s = ssim(image, target.clamp(0, 1)).item<double>();
-    psnr_sum += p;
-    ssim_sum += s;
-    views.push_back({{"name", view.name}, {"psnr", p}, {"ssim", s}});
-    progress.update(++done, {{"psnr", p}, {"ssim", s}});
+    const ImageScores s = score_image(image_to_tensor(truth), image, nullptr, view.name);
+    scores.push_back(s);
+    auto j = scores_json(s);
+    j["name"] = view.name;
+    views.push_back(j);
+    progress.update(++done, {{"psnr", s.psnr}, {"ssim", s.ssim}});
   }
-  const double n = double(run.scene.test_indices.size());
-  nlohmann::json metrics = {{"psnr", psnr_sum / n}, {"ssim", ssim_sum / n}, {"views", views},
-                            {"resolution", {width, height}}, {"scale", o.scale},
-                            {"gaussians", run.field.size()}, {"run", run_record({{"out", o.out}, {"scale", o.scale}})}};
+  const ImageScores mean = mean_scores(scores);
+  nlohmann::json metrics = scores_json(mean);
+  metrics["views"] = views;
+  metrics["resolution"] = {width, height};
+  metrics["scale"] = o.scale;
+  metrics["gaussians"] = run.field.size();
+  metrics["run"] = run_record({{"out", o.out}, {"scale", o.scale}});
   const std::string path = (fs::path(o.out) / "metrics.json").string();
   write_json_file(path, metrics);
-  progress.finish({{"psnr", psnr_sum / n}, {"ssim", ssim_sum / n}});
-  std::printf("%s\n", nlohmann::json({{"psnr", psnr_sum / n}, {"ssim", ssim_sum / n}, {"views", views.size()}}).dump().c_str());
+  progress.finish({{"psnr", mean.psnr}, {"ssim", mean.ssim}});
+  nlohmann::json brief = scores_json(mean);
+  brief.erase("lpips");
+  brief["views"] = views.size();
+  std::printf("%s\n", brief.dump().c_str());
   log_info("wrote " + path);
   return 0;
 }

@@ -137,8 +137,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
     }
   }
 
-  const std::vector<std::string> header = {"method", "psnr", "ssim", "lpips", "train_seconds", "gaussians",
-                                           "storage_mb", "render_fps", "decode_fps", "peak_memory_mb"};
+  const std::vector<std::string> header = {"method",        "psnr",      "ssim",       "ms_ssim",
+                                           "flip",          "lpips",     "train_seconds", "gaussians",
+                                           "storage_mb",    "render_fps", "decode_fps", "peak_memory_mb"};
   std::vector<Row> rows;
   for (const auto& method : o.methods) {
     const auto& m = all[method];
@@ -153,8 +154,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
   spec.title = "lrf compare: " + fs::path(o.scene).filename().string();
   spec.summary_header = header;
   spec.summary_rows = rows;
-  spec.summary_better = {Better::none,  Better::higher, Better::higher, Better::lower, Better::lower,
-                         Better::none,  Better::lower,  Better::higher, Better::higher, Better::lower};
+  spec.summary_better = {Better::none,  Better::higher, Better::higher, Better::higher,
+                         Better::lower, Better::lower,  Better::lower,  Better::none,
+                         Better::lower, Better::higher, Better::higher, Better::lower};
   const Camera& c0 = scene.views[0].camera;
   spec.notes.push_back("Scene " + o.scene + ", test views every " + std::to_string(o.test_every) + "th, scored at " +
                        std::to_string(c0.width) + "x" + std::to_string(c0.height) + " (latent " +
@@ -181,6 +183,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
         if (vj.value("name", std::string()) == v.name) {
           im.numbers = {{"PSNR", Cell::number_in(vj, "psnr")},
                         {"SSIM", Cell::number_in(vj, "ssim")},
+                        {"FLIP", Cell::number_in(vj, "flip")},
                         {"LPIPS", Cell::number_in(vj, "lpips")}};
         }
       }

@@ -1,7 +1,9 @@
 #include "lrf/eval/scores.h"
 
 #include "lrf/core/error.h"
+#include "lrf/eval/flip.h"
 #include "lrf/eval/metrics.h"
+#include "lrf/eval/ms_ssim.h"
 
 namespace lrf {
 
@@ -11,13 +13,20 @@ ImageScores score_image(const cv::Mat& truth, const cv::Mat& render, const Lpips
                    std::to_string(render.channels()) + " but the ground truth is " + std::to_string(truth.cols) +
                    "x" + std::to_string(truth.rows) + "x" + std::to_string(truth.channels()));
   }
+  return score_image(image_to_chw(truth), image_to_chw(render), lpips, name);
+}
+
+ImageScores score_image(const torch::Tensor& truth, const torch::Tensor& render, const Lpips* lpips,
+                        const std::string& name) {
   try {
-    auto t = image_to_chw(truth);
-    auto r = image_to_chw(render);
     ImageScores s;
-    s.psnr = psnr(t, r);
-    s.ssim = ssim(t, r);
-    if (lpips) s.lpips = lpips->distance(t, r);
+    s.psnr = psnr(truth, render);
+    s.ssim = ssim(truth, render);
+    s.ms_ssim = ms_ssim(truth, render);
+    // FLIP is defined on colour; a grey image is the colour image with three equal channels.
+    auto colour = [](const torch::Tensor& x) { return x.dim() == 3 && x.size(0) == 1 ? x.expand({3, -1, -1}) : x; };
+    s.flip = flip(colour(truth), colour(render));
+    if (lpips) s.lpips = lpips->distance(truth, render);
     return s;
   } catch (const Error& e) {
     if (name.empty()) throw;
@@ -25,26 +34,45 @@ ImageScores score_image(const cv::Mat& truth, const cv::Mat& render, const Lpips
   }
 }
 
+namespace {
+
+// The mean of an optional score, present only if every image has it.
+std::optional<double> mean_if_all(const std::vector<ImageScores>& scores, std::optional<double> ImageScores::*score) {
+  double sum = 0.0;
+  for (const auto& s : scores) {
+    if (!(s.*score)) return std::nullopt;
+    sum += *(s.*score);
+  }
+  return sum / static_cast<double>(scores.size());
+}
+
+nlohmann::json optional_json(const std::optional<double>& v) { return v ? nlohmann::json(*v) : nlohmann::json(nullptr); }
+
+}  // namespace
+
 ImageScores mean_scores(const std::vector<ImageScores>& scores) {
   if (scores.empty()) fail("no test views to average");
   ImageScores mean;
-  double lpips_sum = 0.0;
-  bool all_lpips = true;
   for (const auto& s : scores) {
     mean.psnr += s.psnr;
     mean.ssim += s.ssim;
-    all_lpips = all_lpips && s.lpips.has_value();
-    if (s.lpips) lpips_sum += *s.lpips;
+    mean.flip += s.flip;
   }
   const double n = static_cast<double>(scores.size());
   mean.psnr /= n;
   mean.ssim /= n;
-  if (all_lpips) mean.lpips = lpips_sum / n;
+  mean.flip /= n;
+  mean.ms_ssim = mean_if_all(scores, &ImageScores::ms_ssim);
+  mean.lpips = mean_if_all(scores, &ImageScores::lpips);
   return mean;
 }
 
 nlohmann::json scores_json(const ImageScores& s) {
-  return {{"psnr", s.psnr}, {"ssim", s.ssim}, {"lpips", s.lpips ? nlohmann::json(*s.lpips) : nlohmann::json(nullptr)}};
+  return {{"psnr", s.psnr},
+          {"ssim", s.ssim},
+          {"ms_ssim", optional_json(s.ms_ssim)},
+          {"flip", s.flip},
+          {"lpips", optional_json(s.lpips)}};
 }
 
 }  // namespace lrf

@@ -15,17 +15,22 @@ namespace lrf {
 struct ImageScores {
   double psnr = 0.0;
   double ssim = 0.0;
-  std::optional<double> lpips;  // absent when no LPIPS weights were given
+  double flip = 0.0;               // lower is better
+  std::optional<double> ms_ssim;   // absent for images too small for its five scales
+  std::optional<double> lpips;     // absent when no LPIPS weights were given
 };
 
-// PSNR, SSIM and (if `lpips` is given) LPIPS of `render` against `truth`: RGB images of the same size,
+// PSNR, SSIM, MS-SSIM, FLIP and (if `lpips` is given) LPIPS of `render` against `truth`: RGB images of the same size,
 // float in [0, 1] or 8-bit. `name` (e.g. the view's file) is named in errors.
 ImageScores score_image(const cv::Mat& truth, const cv::Mat& render, const Lpips* lpips = nullptr,
                         const std::string& name = "");
+// The same for [C, H, W] float images in [0, 1] (clamped).
+ImageScores score_image(const torch::Tensor& truth, const torch::Tensor& render, const Lpips* lpips = nullptr,
+                        const std::string& name = "");
 // The mean of per-image scores, as 3DGS averages them (the mean of per-image PSNRs, not the PSNR of
-// the mean error). LPIPS is set only if every image has it. Throws lrf::Error for an empty list.
+// the mean error). MS-SSIM and LPIPS are set only if every image has them. Throws lrf::Error for an empty list.
 ImageScores mean_scores(const std::vector<ImageScores>& scores);
-// {"psnr": .., "ssim": .., "lpips": value or null}
+// {"psnr": .., "ssim": .., "ms_ssim": value or null, "flip": .., "lpips": value or null}
 nlohmann::json scores_json(const ImageScores& scores);
 
 }  // namespace lrf

@@ -310,8 +310,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   write_json_file(record_path, record);
 
   // Evaluation scenes: fields with both encoders (and the rgb/8 baseline), decoded with both decoders.
-  const std::vector<std::string> header = {"scene", "method", "psnr", "delta_psnr", "ssim", "lpips", "latent_psnr",
-                                           "roundtrip_psnr"};
+  const std::vector<std::string> header = {"scene", "method",  "psnr",        "delta_psnr",    "ssim",
+                                           "ms_ssim", "flip", "lpips", "latent_psnr", "roundtrip_psnr"};
   std::vector<Row> rows;
   ReportSpec spec;
   spec.title = "lrf pipeline: ablation";
@@ -366,11 +366,16 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       const bool latent = !image_space_row(row);
       rows.push_back({scene_name(s), row, Cell::number_in(r, "psnr"),
                       r.contains("psnr") ? Cell(r["psnr"].get<double>() - stock_psnr) : Cell(),
-                      Cell::number_in(r, "ssim"), Cell::number_in(r, "lpips"),
+                      Cell::number_in(r, "ssim"), Cell::number_in(r, "ms_ssim"), Cell::number_in(r, "flip"),
+                      Cell::number_in(r, "lpips"),
                       latent ? Cell::number_in(r, "latent_psnr") : Cell(),
                       latent ? Cell::number_in(r, "roundtrip_psnr") : Cell()});
       psnr_by_row[row].push_back(r.value("psnr", 0.0));
-      results[scene_name(s)][row] = {{"psnr", r.value("psnr", 0.0)}, {"ssim", r.value("ssim", 0.0)}, {"lpips", r.value("lpips", nlohmann::json())}};
+      results[scene_name(s)][row] = {{"psnr", r.value("psnr", 0.0)},
+                                     {"ssim", r.value("ssim", 0.0)},
+                                     {"ms_ssim", r.value("ms_ssim", nlohmann::json())},
+                                     {"flip", r.value("flip", nlohmann::json())},
+                                     {"lpips", r.value("lpips", nlohmann::json())}};
     }
     // Report: every test view, ground truth then each row.
     SceneOptions so;
@@ -390,6 +395,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         for (const auto& view : m[row].value("views", nlohmann::json::array())) {
           if (view.value("name", std::string()) == v.name) {
             im.numbers.push_back({"PSNR", Cell::number_in(view, "psnr")});
+            im.numbers.push_back({"FLIP", Cell::number_in(view, "flip")});
           }
         }
         rv.methods.push_back(im);
@@ -408,15 +414,17 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       double sum = 0;
       for (double p : psnr_by_row[row]) sum += p;
       const double mean = sum / psnr_by_row[row].size();
-      rows.push_back({"mean", row, Cell(mean), Cell(mean - stock_mean), Cell(), Cell(), Cell(), Cell()});
+      Row mean_row = {"mean", row, Cell(mean), Cell(mean - stock_mean)};
+      mean_row.resize(header.size());  // the other scores are not averaged over scenes
+      rows.push_back(std::move(mean_row));
     }
   }
   write_table_csv((fs::path(o.out) / "ablation.csv").string(), header, rows);
   write_table_markdown((fs::path(o.out) / "ablation.md").string(), header, rows);
   spec.summary_header = header;
   spec.summary_rows = rows;
-  spec.summary_better = {Better::none, Better::none, Better::higher, Better::higher, Better::higher, Better::lower,
-                         Better::higher, Better::higher};
+  spec.summary_better = {Better::none,   Better::none,  Better::higher, Better::higher, Better::higher,
+                         Better::higher, Better::lower, Better::lower,  Better::higher, Better::higher};
   std::string train_list, eval_list;
   for (const auto& s : o.train_scenes) train_list += (train_list.empty() ? "" : ", ") + scene_name(s);
   for (const auto& s : o.eval_scenes) eval_list += (eval_list.empty() ? "" : ", ") + scene_name(s);
