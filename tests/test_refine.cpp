@@ -286,7 +286,9 @@ TEST_F(RefineRun, LatentAnchorKeepsTheFieldNearTheEncodedViews) {
   lrf::refine_latent_field(free);
   auto held = options("anchor_on", 30);
   held.lambda_latent = 10;
+  held.cache_dir = *dir_ / "anchor_cache";  // the encoded anchors go to the cache the caller names
   lrf::refine_latent_field(held);
+  EXPECT_TRUE(fs::exists(held.cache_dir) && !fs::is_empty(held.cache_dir));
   const double before = train_latent_gap(*dir_ / "field");
   const double off = train_latent_gap(*dir_ / "anchor_off"), on = train_latent_gap(*dir_ / "anchor_on");
   std::printf("latent gap to the encoded training views: field %.4f, refined %.4f, refined with anchor %.4f\n",

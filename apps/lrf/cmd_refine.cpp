@@ -41,6 +41,9 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
                   "Weight of an L1 term holding the rendered latent near the encoded training view (normalised "
                   "latent space; 0 = image loss only)")
       ->capture_default_str();
+  cmd->add_option("--cache-dir", o->cache_dir,
+                  "Latent cache of the encoded training views that --lambda-latent needs (default: $LRF_CACHE or "
+                  "~/.cache/lrf)");
   cmd->add_option("--densify-until", o->densify_until,
                   "Keep cloning / splitting Gaussians (3DGS's rule on the image loss's gradient) until this step "
                   "(0 = the field's size stays as Stage II left it)")

@@ -112,6 +112,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
         r.out = dir;
         r.decoder = o.decoder;
         r.seed = o.seed;
+        r.cache_dir = o.cache_dir;
         r.resume = resume && !latent_fresh;
         r.force = !r.resume;
         refine_latent_field(r);

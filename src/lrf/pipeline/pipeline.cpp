@@ -136,6 +136,7 @@ void ensure_refined_field(const PipelineOptions& o, const std::string& field, co
   r.out = dir;
   r.decoder = decoder;
   r.seed = o.seed;
+  r.cache_dir = o.cache_dir;
   const std::string config = (fs::path(dir) / "config.json").string();
   if (splat::run_finished(dir)) {
     const nlohmann::json recorded = read_json_file(config);

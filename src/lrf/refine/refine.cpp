@@ -125,7 +125,8 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   std::vector<torch::Tensor> anchors;
   if (o.lambda_latent > 0) {
     auto encoded = encode_views_cached(src.scene, src.scene.train_indices, *ae,
-                                       autoencoder_identity(src.autoencoder, src.encoder), default_cache_dir());
+                                       autoencoder_identity(src.autoencoder, src.encoder),
+                                       o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
     for (const auto& z : encoded.latents) anchors.push_back(src.range.normalize(z).contiguous());
   }
   const auto& c0 = views.front().camera;

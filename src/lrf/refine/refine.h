@@ -37,6 +37,7 @@ struct RefineOptions {
   // normalised latent space, times this weight), so that the field stays a latent field of the scene
   // and not only of the training images' decoded pixels.
   double lambda_latent = 0;
+  std::string cache_dir;  // latent cache of those encoded views ("" = $LRF_CACHE or ~/.cache/lrf)
   // > 0: Gaussians are still cloned and split (3DGS's rule on the image loss's screen-space gradient)
   // every densify_interval steps until this step; pruning of transparent ones goes on with it.
   int64_t densify_until = 1000;
