@@ -77,7 +77,14 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   const nlohmann::json refined_config = lrf::read_json_file(refined + "/config.json");
   EXPECT_EQ(refined_config["refine_source_decoder"], dir / "run/stage3/decoder-ft.safetensors");
   EXPECT_EQ(refined_config["decoder"], fs::absolute(refined + "/decoder.safetensors").lexically_normal().string());
+  // A row scored by an older lrf (no FLIP) is scored again, without retraining anything.
+  const std::string stock_scores = dir / "run/eval/" + fs::path(o.eval_scenes[0]).filename().string() + "/stock/metrics.json";
+  nlohmann::json old_scores = lrf::read_json_file(stock_scores);
+  ASSERT_TRUE(old_scores.contains("flip"));
+  old_scores.erase("flip");
+  lrf::write_json_file(stock_scores, old_scores);
   lrf::run_pipeline(o);
+  EXPECT_TRUE(lrf::read_json_file(stock_scores).contains("flip"));
   EXPECT_EQ(fs::last_write_time(dir / "run/stage1/encoder.safetensors"), enc_time);
   EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
   EXPECT_EQ(fs::last_write_time(refined + "/point_cloud.ply"), refined_time);

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
 
 #include "lrf/core/error.h"
@@ -201,10 +202,18 @@ void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fi
   finetune_decoder(d);
 }
 
+// A row's finished scores, reused only if they hold every metric this version reports: rows scored before
+// FLIP and MS-SSIM existed are scored again (rendering, not retraining).
+std::optional<nlohmann::json> reusable_scores(const std::string& metrics) {
+  if (!fs::exists(metrics)) return std::nullopt;
+  nlohmann::json m = read_json_file(metrics);
+  if (!m.contains("flip") || !m.contains("ms_ssim")) return std::nullopt;
+  return m;
+}
+
 nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,
                                   const std::string& dir) {
-  const std::string metrics = (fs::path(dir) / "metrics.json").string();
-  if (fs::exists(metrics)) return read_json_file(metrics);
+  if (auto scores = reusable_scores((fs::path(dir) / "metrics.json").string())) return *scores;
   LatentEvalOptions e;
   e.decoder = decoder;
   e.lpips_weights = o.lpips_weights;
@@ -338,7 +347,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         const std::string rgb = paths.field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
         const std::string metrics = (fs::path(rgb) / "metrics.json").string();
-        m[b.row] = fs::exists(metrics) ? read_json_file(metrics) : evaluate_rgb_run(rgb, o.lpips_weights);
+        auto scores = reusable_scores(metrics);
+        m[b.row] = scores ? *scores : evaluate_rgb_run(rgb, o.lpips_weights);
         image_dirs[b.row] = (fs::path(rgb) / "eval").string();
       }
     }
