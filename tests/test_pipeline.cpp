@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "lrf/core/atomic_file.h"
+#include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
 #include "lrf/pipeline/pipeline.h"
@@ -101,9 +102,22 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("the field in this folder was made with other settings"), std::string::npos) << msg;
   EXPECT_NE(msg.find("iters (60 vs 61)"), std::string::npos) << msg;
-  // And refined fields of another length.
+  // A refinement with constant rates (the default) is continued to a larger step count, and its rows are
+  // scored again; the other artefacts stay as they were.
   other = o;
+  other.refine.steps = 5;
+  lrf::run_pipeline(other);
+  EXPECT_EQ(lrf::read_json_file(refined + "/config.json")["result"]["steps"], 5);
+  const std::string refined_scores = dir / "run/eval/" + fs::path(o.eval_scenes[0]).filename().string() + "/both+refine/metrics.json";
+  EXPECT_EQ(lrf::read_json_file(refined_scores)["field_stamp"], lrf::file_stamp(refined + "/point_cloud.ply"));
+  EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
+  // Fewer steps than were made, or another schedule, are refused.
   other.refine.steps = 4;
+  msg = error_of([&] { lrf::run_pipeline(other); });
+  EXPECT_NE(msg.find("the refined field in this folder was made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("steps (5 vs 4)"), std::string::npos) << msg;
+  other.refine.steps = 6;
+  other.refine.lr_final = 0.5;
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("the refined field in this folder was made with other settings"), std::string::npos) << msg;
 }

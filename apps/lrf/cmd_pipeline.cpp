@@ -19,7 +19,8 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip and rgb: DIR/ablation.csv, "
       "DIR/ablation.md, DIR/report.html, "
       "DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
-      "command is run again");
+      "command is run again; a larger --refine-steps continues the finished refinements (with constant rates) and "
+      "scores their rows again");
   auto o = std::make_shared<lrf::PipelineOptions>();
   cmd->add_option("--train-scenes", o->train_scenes, "Scenes for Stage I and Stage III")->required();
   cmd->add_option("--eval-scenes", o->eval_scenes, "Unseen scenes the ablation is measured on")->required();

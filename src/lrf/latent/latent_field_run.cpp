@@ -3,6 +3,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -140,7 +141,10 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
     metrics["peak_memory_mb"] = number("peak_memory_mb");
   }
   std::error_code ec;
-  metrics["storage_mb"] = double(fs::file_size(fs::path(out) / "point_cloud.ply", ec)) / (1 << 20);
+  const std::string field_file = (fs::path(out) / "point_cloud.ply").string();
+  metrics["storage_mb"] = double(fs::file_size(field_file, ec)) / (1 << 20);
+  // Which version of the field these scores belong to, so that a reused score can be checked against it.
+  metrics["field_stamp"] = file_stamp(field_file);
   metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
   write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
   progress.finish({{"psnr", mean.psnr}, {"ssim", mean.ssim}});

@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 
+#include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
@@ -130,6 +131,8 @@ void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int do
 }
 
 // A field refined through `decoder`: reused when finished with the same settings, resumed when interrupted.
+// With constant learning rates a finished refinement is also continued when more steps are asked for (the
+// run is then the same as one made with the larger count from the start); fewer steps are refused.
 void ensure_refined_field(const PipelineOptions& o, const std::string& field, const std::string& decoder,
                           const std::string& dir) {
   RefineOptions r = o.refine;
@@ -142,10 +145,19 @@ void ensure_refined_field(const PipelineOptions& o, const std::string& field, co
   if (splat::run_finished(dir)) {
     const nlohmann::json recorded = read_json_file(config);
     const nlohmann::json refine = recorded.value("refine", nlohmann::json::object());
+    const int64_t done = recorded["result"].value("steps", int64_t(0));
+    const bool extendable = r.lr_final == 1 && done < r.steps;
     require_same_settings(config, {{"refine", refine.value("resume_key", nlohmann::json())},
-                                   {"steps", recorded["result"].value("steps", int64_t(0))}},
+                                   {"steps", extendable ? int64_t(r.steps) : done}},
                           {{"refine", refine_resume_key(r)}, {"steps", r.steps}}, "the refined field", dir);
-    log_info("reusing refined field " + dir);
+    if (!extendable) {
+      log_info("reusing refined field " + dir);
+      return;
+    }
+    log_info("continuing refined field " + dir + " from step " + std::to_string(done) + " to " + std::to_string(r.steps));
+    r.resume = true;
+    r.force = false;
+    refine_latent_field(r);
     return;
   }
   r.resume = fs::exists(splat::checkpoint_path(dir)) && fs::exists(config);
@@ -211,9 +223,14 @@ std::optional<nlohmann::json> reusable_scores(const std::string& metrics) {
   return m;
 }
 
+// A latent row's scores are kept apart from its field, so they are reused only while they belong to the
+// field as it is now (a refined field continued to more steps is scored again).
 nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,
                                   const std::string& dir) {
-  if (auto scores = reusable_scores((fs::path(dir) / "metrics.json").string())) return *scores;
+  auto scores = reusable_scores((fs::path(dir) / "metrics.json").string());
+  if (scores && scores->value("field_stamp", std::string()) == file_stamp((fs::path(field) / "point_cloud.ply").string())) {
+    return *scores;
+  }
   LatentEvalOptions e;
   e.decoder = decoder;
   e.lpips_weights = o.lpips_weights;
