@@ -4,15 +4,11 @@
 #include <cmath>
 #include <sstream>
 
-#include <opencv2/imgproc.hpp>
-
 #include "lrf/core/error.h"
+#include "lrf/eval/ssim_terms.h"
 
 namespace lrf {
 namespace {
-
-constexpr int kWindow = 11;
-constexpr double kSigma = 1.5;
 
 std::string shape_string(const torch::Tensor& t) {
   std::ostringstream s;
@@ -39,33 +35,6 @@ double psnr_from_mse(double mse_value, double peak) {
 
 torch::Tensor clamped64(const torch::Tensor& t, double max) {
   return t.to(torch::kCPU, torch::kFloat64).clamp(0.0, max);
-}
-
-// 3DGS's window: exp(-(x - 5)² / (2σ²)) for x = 0..10, normalised to sum 1. The 11×11 window is the
-// outer product of this with itself, so the blur runs as two 1-D passes; with zero padding that is
-// exactly the 2-D convolution (padded rows and columns contribute zero either way).
-cv::Mat gaussian_1d() {
-  cv::Mat g(kWindow, 1, CV_64F);
-  for (int i = 0; i < kWindow; ++i) {
-    double x = i - kWindow / 2;
-    g.at<double>(i) = std::exp(-(x * x) / (2.0 * kSigma * kSigma));
-  }
-  return g / cv::sum(g)[0];
-}
-
-// Same-size Gaussian blur with zero padding of each channel of a contiguous [C, H, W] float64 tensor.
-// OpenCV's separable filter runs in float64 too; a whole 1008×756 SSIM takes 0.7 s with it against 5.7 s
-// with libtorch's float64 grouped convolution, which has no optimised kernel.
-torch::Tensor blur(const torch::Tensor& x) {
-  static const cv::Mat g = gaussian_1d();
-  const int c = static_cast<int>(x.size(0)), h = static_cast<int>(x.size(1)), w = static_cast<int>(x.size(2));
-  auto out = torch::empty_like(x);
-  for (int k = 0; k < c; ++k) {
-    cv::Mat src(h, w, CV_64F, x[k].data_ptr<double>());
-    cv::Mat dst(h, w, CV_64F, out[k].data_ptr<double>());
-    cv::sepFilter2D(src, dst, CV_64F, g, g, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
-  }
-  return out;
 }
 
 }  // namespace
@@ -97,16 +66,14 @@ double ssim(const torch::Tensor& a, const torch::Tensor& b, double max) {
   auto y = clamped64(b, max).contiguous();
   const double c1 = (0.01 * max) * (0.01 * max);
   const double c2 = (0.03 * max) * (0.03 * max);
-  auto mu_x = blur(x);
-  auto mu_y = blur(y);
-  auto mu_xx = mu_x * mu_x;
-  auto mu_yy = mu_y * mu_y;
-  auto mu_xy = mu_x * mu_y;
-  auto var_x = blur(x * x) - mu_xx;
-  auto var_y = blur(y * y) - mu_yy;
-  auto cov_xy = blur(x * y) - mu_xy;
-  auto map = ((2.0 * mu_xy + c1) * (2.0 * cov_xy + c2)) / ((mu_xx + mu_yy + c1) * (var_x + var_y + c2));
-  return map.mean().item<double>();
+  const int h = static_cast<int>(x.size(1)), w = static_cast<int>(x.size(2));
+  double sum = 0.0;  // every channel has h·w pixels, so the mean of channel means is the mean of the map
+  for (int c = 0; c < x.size(0); ++c) {
+    const cv::Mat xc(h, w, CV_64F, x[c].data_ptr<double>()), yc(h, w, CV_64F, y[c].data_ptr<double>());
+    const SsimTerms t = ssim_terms(xc, yc, c1, c2, SsimWindowPlacement::kSameZeroPadded);
+    sum += cv::mean(t.luminance.mul(t.contrast_structure))[0];
+  }
+  return sum / double(x.size(0));
 }
 
 torch::Tensor image_to_chw(const cv::Mat& image) {

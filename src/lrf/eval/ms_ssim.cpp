@@ -5,49 +5,14 @@
 #include <sstream>
 
 #include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "lrf/core/error.h"
+#include "lrf/eval/ssim_terms.h"
 
 namespace lrf {
 namespace {
 
-constexpr int kWindow = 11;
-constexpr double kSigma = 1.5;
 constexpr std::array<double, 5> kWeights = {0.0448, 0.2856, 0.3001, 0.2363, 0.1333};
-
-cv::Mat window_1d() {
-  cv::Mat g(kWindow, 1, CV_64F);
-  for (int i = 0; i < kWindow; ++i) {
-    const double x = i - kWindow / 2;
-    g.at<double>(i) = std::exp(-(x * x) / (2.0 * kSigma * kSigma));
-  }
-  return g / cv::sum(g)[0];
-}
-
-// The window's weighted mean at every position where it lies wholly inside the image.
-cv::Mat valid_blur(const cv::Mat& x) {
-  static const cv::Mat g = window_1d();
-  cv::Mat full;
-  cv::sepFilter2D(x, full, CV_64F, g, g, cv::Point(-1, -1), 0.0, cv::BORDER_CONSTANT);
-  const int r = kWindow / 2;
-  return full(cv::Rect(r, r, x.cols - 2 * r, x.rows - 2 * r)).clone();
-}
-
-struct Terms {
-  double luminance, contrast_structure;
-};
-
-Terms ssim_terms(const cv::Mat& x, const cv::Mat& y, double c1, double c2) {
-  const cv::Mat mx = valid_blur(x), my = valid_blur(y);
-  const cv::Mat vx = valid_blur(x.mul(x)) - mx.mul(mx);
-  const cv::Mat vy = valid_blur(y.mul(y)) - my.mul(my);
-  const cv::Mat cov = valid_blur(x.mul(y)) - mx.mul(my);
-  cv::Mat l, cs;
-  cv::divide(2.0 * mx.mul(my) + c1, mx.mul(mx) + my.mul(my) + c1, l);
-  cv::divide(2.0 * cov + c2, vx + vy + c2, cs);
-  return {cv::mean(l)[0], cv::mean(cs)[0]};
-}
 
 // 2x2 average pooling; an odd last row or column is dropped.
 cv::Mat halve(const cv::Mat& x) {
@@ -83,10 +48,10 @@ std::optional<double> ms_ssim(const torch::Tensor& a, const torch::Tensor& b, do
     cv::Mat yc = cv::Mat(h, w, CV_64F, y[c].data_ptr<double>()).clone();
     double value = 1.0;
     for (size_t scale = 0; scale < kWeights.size(); ++scale) {
-      const Terms t = ssim_terms(xc, yc, c1, c2);
-      value *= std::pow(std::max(0.0, t.contrast_structure), kWeights[scale]);
+      const SsimTerms t = ssim_terms(xc, yc, c1, c2, SsimWindowPlacement::kValid);
+      value *= std::pow(std::max(0.0, cv::mean(t.contrast_structure)[0]), kWeights[scale]);
       if (scale + 1 == kWeights.size()) {
-        value *= std::pow(std::max(0.0, t.luminance), kWeights[scale]);
+        value *= std::pow(std::max(0.0, cv::mean(t.luminance)[0]), kWeights[scale]);
       } else {
         xc = halve(xc);
         yc = halve(yc);
