@@ -73,15 +73,15 @@ bool is_best(const std::vector<Row>& rows, size_t col, Better better, size_t row
   return rows[row][col].number == best;
 }
 
-void summary_table(std::string& html, const ReportSpec& spec) {
-  const auto& header = spec.summary_header;
-  table_csv(header, spec.summary_rows, "HTML report summary");  // validates the widths with a clear error
-  const std::vector<Row> rows = align_decimals(spec.summary_rows);
+void html_table(std::string& html, const ReportTable& table) {
+  const auto& header = table.header;
+  table_csv(header, table.rows, "HTML report table '" + table.title + "'");  // validates the widths with a clear error
+  const std::vector<Row> rows = align_decimals(table.rows);
   std::vector<bool> numeric(header.size(), true);
   for (const auto& r : rows) {
     for (size_t j = 0; j < r.size(); ++j) numeric[j] = numeric[j] && r[j].kind != Cell::Kind::text;
   }
-  html += "<h2>Summary</h2>\n<div class=\"table-wrap\"><table>\n<thead><tr>";
+  html += "<h2>" + html_escape(table.title) + "</h2>\n<div class=\"table-wrap\"><table>\n<thead><tr>";
   for (size_t j = 0; j < header.size(); ++j) {
     html += std::string(numeric[j] ? "<th class=\"num\">" : "<th>") + html_escape(header[j]) + "</th>";
   }
@@ -90,7 +90,7 @@ void summary_table(std::string& html, const ReportSpec& spec) {
     html += "<tr>";
     for (size_t j = 0; j < header.size(); ++j) {
       std::string cls = numeric[j] ? "num" : "";
-      Better better = j < spec.summary_better.size() ? spec.summary_better[j] : Better::none;
+      Better better = j < table.better.size() ? table.better[j] : Better::none;
       if (is_best(rows, j, better, i)) cls += " best";
       if (rows[i][j].missing()) cls += " missing";
       html += (cls.empty() ? "<td>" : "<td class=\"" + cls + "\">") + html_escape(display_text(rows[i][j])) + "</td>";
@@ -189,7 +189,10 @@ std::string html_report(const ReportSpec& spec) {
   html += "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n";
   html += "<title>" + html_escape(spec.title) + "</title>\n<style>" + kCss + "</style>\n</head>\n<body>\n<main>\n";
   html += "<h1>" + html_escape(spec.title) + "</h1>\n";
-  if (!spec.summary_header.empty()) summary_table(html, spec);
+  if (!spec.summary_header.empty()) {
+    html_table(html, {"Summary", spec.summary_header, spec.summary_rows, spec.summary_better});
+  }
+  for (const auto& table : spec.tables) html_table(html, table);
   if (!spec.notes.empty()) {
     html += "<h2>Notes</h2>\n<div class=\"notes\">\n";
     for (const auto& note : spec.notes) html += "<p>" + html_escape(note) + "</p>\n";

@@ -28,11 +28,20 @@ struct ReportView {
 // Which way is better for a summary column: the best value of such a column is shown in bold.
 enum class Better { none, higher, lower };
 
+// A further table of the report, shown under its own heading after the summary.
+struct ReportTable {
+  std::string title;
+  std::vector<std::string> header;
+  std::vector<Row> rows;
+  std::vector<Better> better;  // per column; may be empty
+};
+
 struct ReportSpec {
   std::string title;
   std::vector<std::string> summary_header;
   std::vector<Row> summary_rows;
   std::vector<Better> summary_better;  // per column; may be empty (no highlighting)
+  std::vector<ReportTable> tables;     // after the summary (e.g. compare's efficiency table)
   std::vector<std::string> notes;      // paragraphs of plain text
   std::vector<ReportView> views;
   // Show pixels as squares when the browser enlarges small images (latent-resolution renders), so that
