@@ -68,9 +68,45 @@ TEST(Compare, ReusesFinishedMethodsAndFinishesInterruptedOnesBeforeScoring) {
   const std::string table = lrf::read_file(dir / "cmp/table.csv");
   EXPECT_EQ(table.find("-1"), std::string::npos) << table;
   EXPECT_EQ(table.rfind("method,psnr,ssim,ms_ssim,flip,lpips,", 0), 0u) << table;
+  // The efficiency table: what each method is fitted to (64x48 views; the latent is 8x6 with TAEF2's 32
+  // channels), with its time, memory and speed from the same metrics.
+  const std::string efficiency = lrf::read_file(dir / "cmp/efficiency.csv");
+  EXPECT_EQ(efficiency.rfind("method,fitted_to,train_seconds,peak_memory_mb,storage_mb,gaussians,render_fps,decode_fps,"
+                             "psnr,ssim\n", 0), 0u) << efficiency;
+  EXPECT_NE(efficiency.find("\nrgb/8,8x6 RGB,"), std::string::npos) << efficiency;
+  EXPECT_NE(efficiency.find("\nlatent,8x6x32 latents,"), std::string::npos) << efficiency;
+  EXPECT_NE(lrf::read_file(dir / "cmp/report.html").find("<h2>Efficiency</h2>"), std::string::npos);
   const double flip = lrf::read_json_file((cmp / "latent" / "metrics.json").string()).value("flip", -1.0);
   EXPECT_GT(flip, 0.0);
   EXPECT_LT(flip, 1.0);
+}
+
+// Few-shot: every method trains on the same K views (recorded), never starts from the scene's own SfM
+// points (reconstructed from every view, test views included), and the folder refuses other settings.
+TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
+  lrf::test::TempDir dir("compare_few_shot");
+  lrf::CompareOptions o = tiny_compare(dir / "cmp");
+  o.train_views = 3;  // test view 0; training views 1..7 at positions 0, 3, 6
+  o.methods = {"rgb-mip", "latent"};  // Table 2's Mip-Splatting row: full resolution, with the filters
+  lrf::run_compare(o);
+  EXPECT_EQ(lrf::read_json_file(dir / "cmp/rgb-mip/config.json")["mip"], true);
+  EXPECT_NE(lrf::read_file(dir / "cmp/efficiency.csv").find("\nrgb-mip,64x48 RGB,"), std::string::npos);
+  const nlohmann::json names = {"view_001.png", "view_004.png", "view_007.png"};
+  for (const char* m : {"rgb-mip", "latent"}) {
+    SCOPED_TRACE(m);
+    const nlohmann::json config = lrf::read_json_file(dir / (std::string("cmp/") + m + "/config.json"));
+    EXPECT_EQ(config["train_views"], 3);
+    EXPECT_EQ(config["few_shot_views"], 3);
+    EXPECT_EQ(config["few_shot_view_names"], names);
+    EXPECT_NE(config["init_points"].value("source", std::string()), "file") << config["init_points"].dump();
+    EXPECT_EQ(lrf::read_json_file(dir / (std::string("cmp/") + m + "/metrics.json"))["views"].size(), 1u);
+  }
+  EXPECT_EQ(lrf::read_json_file(dir / "cmp/compare.json")["training_views"], names);
+  lrf::CompareOptions all_views = o;
+  all_views.train_views = 0;
+  const std::string msg = lrf::test::error_of([&] { lrf::run_compare(all_views); });
+  EXPECT_NE(msg.find("this folder holds methods made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("train_views (3 vs 0)"), std::string::npos) << msg;
 }
 
 }  // namespace

@@ -36,6 +36,17 @@ TEST(SceneReal, FernLlffImages8) {
   EXPECT_EQ(img.rows, 378);
 }
 
+// The 3 views the few-shot LLFF literature trains fern on (test views 0, 8, 16; the 17 others at
+// linspace(0, 16, 3)): image 1, 10 and 19.
+TEST(SceneReal, FernThreeViewSplit) {
+  lrf::SceneOptions o;
+  o.images_dir = "images_8";
+  o.train_views = 3;
+  lrf::Scene s = lrf::load_scene(scene_dir("llff-fern"), o);
+  EXPECT_EQ(s.train_indices, (std::vector<int>{1, 10, 19}));
+  EXPECT_EQ(s.test_indices, (std::vector<int>{0, 8, 16}));
+}
+
 TEST(SceneReal, FernPointsProjectInsideWithLlffPoses) {
   lrf::SceneOptions o;
   o.images_dir = "images_8";

@@ -217,4 +217,32 @@ TEST(SceneSplit, TestEveryAndTestList) {
   EXPECT_THROW(lrf::load_scene(src, l), lrf::Error);
 }
 
+// Few-shot: K training views at numpy's linspace(0, n-1, K).round() over the non-test views, halves to
+// even (2.5 -> 2), the same on every load, never a test view; impossible K is an error naming the scene.
+TEST(SceneSplit, FewShotViewsAreEvenlySpacedOverTheNonTestViews) {
+  std::string src = lrf::test::synthetic_scene(kOpts);
+  lrf::test::TempDir tmp("few_shot");
+  std::ofstream(tmp / "test.txt") << "view_002.png\nview_005.png\n";
+  lrf::SceneOptions o;
+  o.test_list = tmp / "test.txt";  // training views 0 1 3 4 6 7
+  o.train_views = 3;               // positions 0, 2.5, 5
+  const lrf::Scene s = lrf::load_scene(src, o);
+  EXPECT_EQ(s.train_indices, (std::vector<int>{0, 3, 7}));
+  EXPECT_EQ(s.test_indices, (std::vector<int>{2, 5}));
+  EXPECT_EQ(s.few_shot_views, 3);
+  EXPECT_EQ(lrf::load_scene(src, o).train_indices, s.train_indices);
+  o.train_views = 1;
+  EXPECT_EQ(lrf::load_scene(src, o).train_indices, (std::vector<int>{0}));
+  o.train_views = 6;
+  EXPECT_EQ(lrf::load_scene(src, o).train_indices, (std::vector<int>{0, 1, 3, 4, 6, 7}));
+  o.train_views = 7;
+  const std::string msg = lrf::test::error_of([&] { lrf::load_scene(src, o); });
+  EXPECT_NE(msg.find("--train-views 7 asks for more training views than the split leaves (6)"), std::string::npos) << msg;
+  EXPECT_NE(msg.find(src), std::string::npos) << msg;
+  o.train_views = -1;
+  EXPECT_THROW(lrf::load_scene(src, o), lrf::Error);
+  o.train_views = 0;
+  EXPECT_EQ(lrf::load_scene(src, o).few_shot_views, 0);
+}
+
 }  // namespace

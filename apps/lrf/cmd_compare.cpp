@@ -12,15 +12,22 @@
 namespace {
 
 lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
-  auto* cmd = root.add_subcommand("compare", "Table 1 on one scene: rgb/8, rgb/8-mip, latent and refined latent fields "
-                                             "(and the full-resolution rgb field on request), scored on the test "
-                                             "views; writes DIR/table.csv, table.md, report.html");
+  auto* cmd = root.add_subcommand(
+      "compare",
+      "Table 1 on one scene: rgb/8, rgb/8-mip, latent and refined latent fields (and the full-resolution rgb and "
+      "rgb-mip fields on request), scored on the test views; writes DIR/table.csv, table.md, the efficiency table "
+      "(what each method is fitted to, training time, peak memory, storage, render and decode FPS) efficiency.csv, "
+      "efficiency.md, and report.html");
   auto o = std::make_shared<lrf::CompareOptions>();
   cmd->add_option("scene", o->scene, "Scene folder")->required();
   cmd->add_option("-o,--out", o->out, "Output folder (one subfolder per method; finished methods are reused)")->required();
   cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
   cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")->capture_default_str();
   cmd->add_option("--test-every", o->test_every, "Hold out every N-th view for testing")->capture_default_str();
+  cmd->add_option("--train-views", o->train_views,
+                  "Few-shot protocol (the paper's Table 2 uses 3): every method trains on only K views, evenly spaced "
+                  "over the non-test views; test views unchanged; initial points triangulated from the K (0: all)")
+      ->capture_default_str();
   cmd->add_option("--autoencoder", o->autoencoder, "Autoencoder of the latent field (name or path)")->capture_default_str();
   cmd->add_option("--encoder", o->encoder, "Fine-tuned encoder weights for the latent field (Stage I)");
   cmd->add_option("--decoder", o->decoder,
@@ -29,7 +36,8 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   cmd->add_option("--latent-iters", o->latent_iters, "Training steps of the latent field (0 = --iters)")->capture_default_str();
   cmd->add_option("--latent-sh-degree", o->latent_sh_degree, "SH degree of the latent field")->capture_default_str();
   cmd->add_option("--methods", o->methods,
-                  "Methods to run: rgb (full resolution), rgb/8, rgb/8-mip (RGB fields on 8x downscaled views), latent, "
+                  "Methods to run: rgb, rgb-mip (full resolution, without / with Mip-Splatting's filters), rgb/8, "
+                  "rgb/8-mip (RGB fields on 8x downscaled views), latent, "
                   "latent-refined (the latent field refined through the decoder against the training images)")
       ->capture_default_str();
   lrf::cli::add_refine_options(cmd, &o->refine, "latent-refined");

@@ -46,6 +46,11 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--stage3-crop", o->stage3_crop, "Stage III crop side in pixels (0: finetune-decoder's default)")
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of every stage")->capture_default_str();
+  cmd->add_option("--eval-train-views", o->eval_train_views,
+                  "Few-shot protocol on the evaluation scenes (the paper's Table 2 uses 3): their fields train on only K "
+                  "views, evenly spaced over the non-test views, with initial points triangulated from the K; training "
+                  "scenes keep every view (0: all)")
+      ->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS (v0.1 VGG) weights; without them LPIPS is not computed");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default: $LRF_CACHE or ~/.cache/lrf)");
   lrf::cli::add_refine_options(cmd, &o->refine, "the +refine rows");

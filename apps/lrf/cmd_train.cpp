@@ -52,6 +52,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.cache_dir = o.cache_dir;
   l.downscale = o.scene_options.downscale;
   l.test_every = o.scene_options.test_every;
+  l.train_views = o.scene_options.train_views;
   if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
     lrf::fail("--test-list, --crop8 and --format are not available with --space latent yet (latent views are always "
               "cropped to multiples of 8)");
@@ -72,7 +73,8 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
 nlohmann::json to_json(const TrainOptions& o) {
   return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
           {"images", o.scene_options.images_dir}, {"downscale", o.scene_options.downscale},
-          {"test_every", o.scene_options.test_every}, {"test_list", o.scene_options.test_list},
+          {"test_every", o.scene_options.test_every}, {"train_views", o.scene_options.train_views},
+          {"test_list", o.scene_options.test_list},
           {"format", o.scene_options.format}, {"crop8", o.scene_options.crop_to_multiple_of_8}, {"iters", o.iters},
           {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
           {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
@@ -97,6 +99,7 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
     o.scene_options.images_dir = j.at("images").get<std::string>();
     o.scene_options.downscale = j.at("downscale").get<int>();
     o.scene_options.test_every = j.at("test_every").get<int>();
+    o.scene_options.train_views = j.value("train_views", 0);
     o.sh_degree = j.at("sh_degree").get<int>();
     o.sh_degree_set = true;
     o.seed = j.at("seed").get<uint64_t>();

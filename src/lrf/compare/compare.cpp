@@ -37,24 +37,95 @@ std::string method_dir(const std::string& method) {
   return d;
 }
 
+// What every method's field depends on beyond its own name. Finished methods are reused, so a folder made
+// with other settings is refused rather than mixed into one table.
+nlohmann::json compare_settings(const CompareOptions& o) {
+  std::error_code ec;
+  const fs::path scene = fs::weakly_canonical(o.scene, ec);
+  return {{"scene", ec ? o.scene : scene.string()},
+          {"images", o.images},
+          {"downscale", o.downscale},
+          {"test_every", o.test_every},
+          {"train_views", o.train_views},
+          {"iters", o.iters},
+          {"latent_iters", o.latent_iters},
+          {"seed", o.seed},
+          {"init_points", o.init_points.mode},
+          {"far_shell", o.init_points.shell.points}};
+}
+
+void require_same_settings(const std::string& summary_path, const nlohmann::json& wanted) {
+  if (!fs::exists(summary_path)) return;
+  const nlohmann::json recorded = read_json_file(summary_path).value("settings", nlohmann::json());
+  if (!recorded.is_object()) return;  // written before compare recorded its settings
+  std::string differ;
+  for (const auto& [key, value] : wanted.items()) {
+    if (recorded.contains(key) && recorded[key] != value) {
+      differ += " " + key + " (" + recorded[key].dump() + " vs " + value.dump() + ")";
+    }
+  }
+  if (!differ.empty()) {
+    fail(summary_path, "this folder holds methods made with other settings:" + differ +
+                           "; use another output folder, or --force to retrain every method");
+  }
+}
+
+// What a method's field is fitted to: the paper's efficiency table compares methods by the size of what
+// they optimise against as well as by time and memory.
+std::string fitted_to(const std::string& method, const std::string& dir, const Camera& camera) {
+  const std::string full = std::to_string(camera.width) + "x" + std::to_string(camera.height);
+  const std::string eighth = std::to_string(camera.width / 8) + "x" + std::to_string(camera.height / 8);
+  if (method == "rgb" || method == "rgb-mip") return full + " RGB";
+  if (method == "rgb/8" || method == "rgb/8-mip") return eighth + " RGB";
+  std::string channels = "?";
+  const fs::path config = fs::path(dir) / "config.json";
+  if (fs::exists(config)) {
+    const nlohmann::json c = read_json_file(config.string());
+    if (c.contains("background") && c["background"].is_array()) channels = std::to_string(c["background"].size());
+  }
+  const std::string latents = eighth + "x" + channels + " latents";
+  return method == "latent-refined" ? latents + ", then " + full + " RGB through the decoder" : latents;
+}
+
+// The paper's efficiency table (training time, memory, storage, render and decode speed) for these methods.
+ReportTable efficiency_table(const CompareOptions& o, const nlohmann::json& all, const Camera& camera) {
+  ReportTable t;
+  t.title = "Efficiency";
+  t.header = {"method",     "fitted_to",  "train_seconds", "peak_memory_mb", "storage_mb", "gaussians",
+              "render_fps", "decode_fps", "psnr",          "ssim"};
+  t.better = {Better::none,   Better::none,   Better::lower, Better::lower, Better::lower,
+              Better::none,   Better::higher, Better::higher, Better::higher, Better::higher};
+  for (const auto& method : o.methods) {
+    const auto& m = all[method];
+    Row row = {method, fitted_to(method, (fs::path(o.out) / method_dir(method)).string(), camera)};
+    for (size_t k = 2; k < t.header.size(); ++k) row.push_back(Cell::number_in(m, t.header[k].c_str()));
+    t.rows.push_back(std::move(row));
+  }
+  return t;
+}
+
 }  // namespace
 
 const std::vector<std::string>& compare_methods() {
-  static const std::vector<std::string> m = {"rgb", "rgb/8", "rgb/8-mip", "latent", "latent-refined"};
+  static const std::vector<std::string> m = {"rgb", "rgb-mip", "rgb/8", "rgb/8-mip", "latent", "latent-refined"};
   return m;
 }
 
 nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& m : o.methods) {
     if (std::find(compare_methods().begin(), compare_methods().end(), m) == compare_methods().end())
-      fail("unknown method '" + m + "' (rgb, rgb/8, rgb/8-mip, latent, latent-refined)");
+      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined)");
   }
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
+  const std::string summary_path = (fs::path(o.out) / "compare.json").string();
+  const nlohmann::json settings = compare_settings(o);
+  if (!o.force) require_same_settings(summary_path, settings);
   SceneOptions so;
   so.images_dir = o.images;
   so.downscale = o.downscale;
   so.test_every = o.test_every;
+  so.train_views = o.train_views;
   so.crop_to_multiple_of_8 = true;
   Scene scene = load_scene(o.scene, so);
   auto resumable = [&](const std::string& dir) {
@@ -74,6 +145,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
     l.images = o.images;
     l.downscale = o.downscale;
     l.test_every = o.test_every;
+    l.train_views = o.train_views;
     l.autoencoder = o.autoencoder;
     l.encoder = o.encoder;
     l.cache_dir = o.cache_dir;
@@ -126,9 +198,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
         b.scene = o.scene;
         b.scene_options = so;
         b.out = dir;
-        b.factor = method == "rgb" ? 1 : 8;
+        b.factor = method.rfind("rgb/8", 0) == 0 ? 8 : 1;
         b.iters = o.iters;
-        b.mip = method == "rgb/8-mip";
+        b.mip = method == "rgb/8-mip" || method == "rgb-mip";
         b.seed = o.seed;
         b.resume = resume;
         b.init_points = o.init_points;
@@ -150,22 +222,33 @@ nlohmann::json run_compare(const CompareOptions& o) {
   }
   write_table_csv((fs::path(o.out) / "table.csv").string(), header, rows);
   write_table_markdown((fs::path(o.out) / "table.md").string(), header, rows);
+  const ReportTable efficiency = efficiency_table(o, all, scene.views[0].camera);
+  write_table_csv((fs::path(o.out) / "efficiency.csv").string(), efficiency.header, efficiency.rows);
+  write_table_markdown((fs::path(o.out) / "efficiency.md").string(), efficiency.header, efficiency.rows);
 
   ReportSpec spec;
   spec.title = "lrf compare: " + fs::path(o.scene).filename().string();
   spec.summary_header = header;
   spec.summary_rows = rows;
+  spec.tables.push_back(efficiency);
   spec.summary_better = {Better::none,  Better::higher, Better::higher, Better::higher,
                          Better::lower, Better::lower,  Better::lower,  Better::none,
                          Better::lower, Better::higher, Better::higher, Better::lower};
   const Camera& c0 = scene.views[0].camera;
+  if (o.train_views > 0) {
+    std::string names;
+    for (int i : scene.train_indices) names += (names.empty() ? "" : ", ") + scene.views[static_cast<size_t>(i)].name;
+    spec.notes.push_back("Few-shot: every method trained on " + std::to_string(o.train_views) +
+                         " views, evenly spaced over the non-test views (" + names +
+                         "), with initial points triangulated from them (unless --init-points says otherwise).");
+  }
   spec.notes.push_back("Scene " + o.scene + ", test views every " + std::to_string(o.test_every) + "th, scored at " +
                        std::to_string(c0.width) + "x" + std::to_string(c0.height) + " (latent " +
                        std::to_string(c0.width / 8) + "x" + std::to_string(c0.height / 8) + "). rgb/8 and rgb/8-mip: RGB "
                        "3D Gaussian splatting trained on the views downscaled 8x and rendered at full resolution "
                        "(the paper's 3DGS/8 and Mip-Splatting/8); latent: a latent field with the " +
                        o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE). " + std::to_string(o.iters) +
-                       " iterations. rgb: RGB 3D Gaussian splatting on the full-resolution views. latent-refined: "
+                       " iterations. rgb, rgb-mip: RGB 3D Gaussian splatting (rgb-mip with Mip-Splatting's filters) on the full-resolution views. latent-refined: "
                        "the latent field refined through the decoder against the training images (lrf refine: " +
                        refine_description(o.refine) + ").");
   if (!all.empty() && all.begin()->value("lpips", nlohmann::json()).is_null())
@@ -193,8 +276,14 @@ nlohmann::json run_compare(const CompareOptions& o) {
     spec.views.push_back(rv);
   }
   write_html_report((fs::path(o.out) / "report.html").string(), spec);
-  nlohmann::json summary = {{"methods", all}, {"run", run_record({{"scene", o.scene}, {"iters", o.iters}})}};
-  write_json_file((fs::path(o.out) / "compare.json").string(), summary);
+  nlohmann::json summary = {
+      {"methods", all}, {"settings", settings}, {"run", run_record({{"scene", o.scene}, {"iters", o.iters}})}};
+  if (o.train_views > 0) {
+    nlohmann::json names = nlohmann::json::array();
+    for (int i : scene.train_indices) names.push_back(scene.views[static_cast<size_t>(i)].name);
+    summary["training_views"] = names;
+  }
+  write_json_file(summary_path, summary);
   return summary;
 }
 

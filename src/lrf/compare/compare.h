@@ -18,6 +18,7 @@ namespace lrf {
 struct CompareOptions {
   std::string scene, out, images, autoencoder = "taef2", encoder, decoder, lpips_weights, cache_dir;
   int downscale = 1, test_every = 8, latent_sh_degree = 0;
+  int train_views = 0;  // few-shot: K evenly spaced training views for every method (0 = all)
   int64_t iters = 7000, latent_iters = 0;  // latent_iters 0 = iters
   uint64_t seed = 0;
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
@@ -26,7 +27,7 @@ struct CompareOptions {
   bool force = false;
 };
 
-// Every method compare knows: rgb (full resolution), rgb/8, rgb/8-mip, latent, latent-refined.
+// Every method compare knows: rgb and rgb-mip (full resolution), rgb/8, rgb/8-mip, latent, latent-refined.
 const std::vector<std::string>& compare_methods();
 
 // Runs (or reuses) every method and writes OUT/table.csv, OUT/table.md and OUT/report.html.

@@ -26,6 +26,7 @@ constexpr int kDefaultLatentShDegree = 0;
 struct LatentTrainOptions {
   std::string scene, out, images, autoencoder = "taef2", encoder, init = "latents", cache_dir;
   int downscale = 1, test_every = 8, sh_degree = 0;
+  int train_views = 0;  // few-shot: K evenly spaced training views (SceneOptions::train_views); 0 = all
   int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
   uint64_t seed = 0;
   bool resume = false, force = false, sparse_adam = false;

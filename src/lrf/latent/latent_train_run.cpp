@@ -21,7 +21,8 @@ namespace {
 nlohmann::json options_json(const LatentTrainOptions& o) {
   return {{"scene", o.scene},       {"out", o.out},           {"images", o.images},
           {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
-          {"downscale", o.downscale}, {"test_every", o.test_every}, {"sh_degree", o.sh_degree},
+          {"downscale", o.downscale}, {"test_every", o.test_every}, {"train_views", o.train_views},
+          {"sh_degree", o.sh_degree},
           {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
           {"checkpoint_every", o.checkpoint_every}};
@@ -39,6 +40,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   so.images_dir = o.images;
   so.downscale = o.downscale;
   so.test_every = o.test_every;
+  so.train_views = o.train_views;
   so.crop_to_multiple_of_8 = true;
   Scene scene = load_scene(o.scene, so);
   auto ae = load_autoencoder(o.autoencoder, o.encoder);

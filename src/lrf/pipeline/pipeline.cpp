@@ -65,9 +65,10 @@ void require_same_settings(const std::string& record, const nlohmann::json& reco
 }
 
 // The settings that decide a field: scene, resolution, length, seed and (latent) the autoencoder's identity.
-nlohmann::json field_settings(const std::string& scene, int downscale, int64_t iters, uint64_t seed,
+nlohmann::json field_settings(const std::string& scene, int downscale, int train_views, int64_t iters, uint64_t seed,
                               const std::string& autoencoder_id) {
-  nlohmann::json j = {{"scene", canonical(scene)}, {"downscale", downscale}, {"iters", iters}, {"seed", seed}};
+  nlohmann::json j = {{"scene", canonical(scene)}, {"downscale", downscale}, {"few_shot_views", train_views},
+                      {"iters", iters}, {"seed", seed}};
   if (!autoencoder_id.empty()) j["autoencoder_identity"] = autoencoder_id;
   return j;
 }
@@ -79,6 +80,7 @@ bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
   const nlohmann::json config = read_json_file(record);
   const nlohmann::json& options = config.at("options");
   const nlohmann::json recorded = field_settings(config.value("scene", std::string()), config.value("downscale", 0),
+                                                 config.value("few_shot_views", 0),
                                                  options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
                                                  config.value("autoencoder_identity", std::string()));
   require_same_settings(record, recorded, wanted, "the field", dir);
@@ -92,9 +94,9 @@ nlohmann::json finetune_settings(nlohmann::json options) {
   return options;
 }
 
-void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
-                         const std::string& encoder) {
-  if (reusable_field(dir, field_settings(scene, downscale, o.field_iters, o.seed,
+void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int downscale, int train_views,
+                         const std::string& dir, const std::string& encoder) {
+  if (reusable_field(dir, field_settings(scene, downscale, train_views, o.field_iters, o.seed,
                                          autoencoder_identity(o.autoencoder, encoder)))) {
     return;
   }
@@ -102,6 +104,7 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
   l.scene = scene;
   l.out = dir;
   l.downscale = downscale;
+  l.train_views = train_views;
   l.autoencoder = o.autoencoder;
   l.encoder = encoder;
   l.cache_dir = o.cache_dir;
@@ -116,10 +119,11 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
 // An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
 void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
                       int factor, bool mip) {
-  if (reusable_field(dir, field_settings(scene, downscale, o.field_iters, o.seed, ""))) return;
+  if (reusable_field(dir, field_settings(scene, downscale, o.eval_train_views, o.field_iters, o.seed, ""))) return;
   RgbBaselineOptions b;
   b.scene = scene;
   b.scene_options.downscale = downscale;
+  b.scene_options.train_views = o.eval_train_views;
   b.out = dir;
   b.factor = factor;
   b.iters = o.field_iters;
@@ -292,7 +296,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"refine_rows", o.refine_rows},
                            {"rgb_full", o.rgb_full},
                            {"stage1", encoder_finetune_options_json(o.stage1)},
-                           {"seed", o.seed}};
+                           {"seed", o.seed},
+                           {"eval_train_views", o.eval_train_views}};
   for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical(s));
   for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical(s));
   nlohmann::json record = run_record(inputs);
@@ -312,7 +317,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   for (const auto& s : o.train_scenes) {
     for (const auto& [tag, enc] : {std::pair<std::string, std::string>{"stock", ""}, {"ft", encoder}}) {
       const std::string dir = paths.field(s, tag);
-      ensure_latent_field(o, s, downscale[s], dir, enc);
+      ensure_latent_field(o, s, downscale[s], 0, dir, enc);  // Stage III learns from every view
       train_fields[tag].push_back(dir);
     }
   }
@@ -347,8 +352,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   std::map<std::string, std::vector<double>> psnr_by_row;
   for (const auto& s : o.eval_scenes) {
     const std::string stock_field = paths.field(s, "stock"), ft_field = paths.field(s, "ft");
-    ensure_latent_field(o, s, downscale[s], stock_field, "");
-    ensure_latent_field(o, s, downscale[s], ft_field, encoder);
+    ensure_latent_field(o, s, downscale[s], o.eval_train_views, stock_field, "");
+    ensure_latent_field(o, s, downscale[s], o.eval_train_views, ft_field, encoder);
     std::map<std::string, nlohmann::json> m;
     std::map<std::string, std::string> image_dirs;
     if (o.rgb_baseline) {

@@ -33,6 +33,7 @@ struct PipelineOptions {
   double stage3_lr = 0;             // 0: the decoder fine-tuning's default
   int stage3_crop = 0;              // 0: the decoder fine-tuning's default
   uint64_t seed = 0;
+  int eval_train_views = 0;         // few-shot: the evaluation scenes' fields see K training views (0 = all)
   RefineOptions refine;             // the refined rows: steps, crop, learning rates (the rest is set here)
   bool rgb_baseline = true;         // the rgb/8 and rgb/8-mip rows
   bool rgb_full = false;            // the rgb row (full resolution: the most costly field, so on request)

@@ -83,7 +83,7 @@ InitialPoints choose_points(const Scene& scene, const InitPointsOptions& o) {
     ip.source = "file";
     ip.description = std::to_string(ip.points.size()) + " points from " + o.mode;
     ip.record = {{"source", "file"}, {"file", absolute(o.mode)}, {"points", ip.points.size()}};
-  } else if (o.mode == "auto" && !scene.points.empty()) {
+  } else if (o.mode == "auto" && !scene.points.empty() && scene.few_shot_views == 0) {
     ip.points = scene.points;
     ip.source = "file";
     ip.description = std::to_string(ip.points.size()) + " SfM points from " + scene.points_file;
@@ -121,7 +121,7 @@ InitialPoints describe_initial_points(const Scene& scene, const InitPointsOption
   if (!is_keyword(o.mode)) {
     ip.source = "file";
     ip.description = "file " + o.mode;
-  } else if (o.mode == "auto" && !scene.points.empty()) {
+  } else if (o.mode == "auto" && !scene.points.empty() && scene.few_shot_views == 0) {
     ip.source = "file";
     ip.description = "file " + scene.points_file + " (" + std::to_string(scene.points.size()) + " points)";
   } else {

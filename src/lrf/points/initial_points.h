@@ -3,7 +3,9 @@
 // points triangulated from the training views with the known poses (cached, see points_cache.h); else,
 // when triangulation fails or keeps fewer than min_points, random points (logged). `random` forces random
 // points, `triangulate` triangulates even when the scene has points, and a file path takes a COLMAP
-// points3D.bin/.txt. A far-background shell (far_shell.h) can be added to any of them but random.
+// points3D.bin/.txt. A few-shot scene (SceneOptions::train_views) never starts from the scene's own points
+// under `auto`: they were reconstructed from every view, test views included, so its K views triangulate
+// their own. A far-background shell (far_shell.h) can be added to any of them but random.
 #include <string>
 #include <vector>
 

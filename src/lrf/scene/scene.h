@@ -46,6 +46,9 @@ struct SceneOptions {
   bool crop_to_multiple_of_8 = false;  // centre crop (for latent work)
   int test_every = 8;          // test views: index % test_every == 0 (0 disables the split)
   std::string test_list;       // file with one image name per line; overrides test_every
+  // Few-shot protocol: keep only this many training views, evenly spaced over the non-test views as the
+  // few-shot NVS literature picks them on LLFF (0 = every non-test view). Test views are unchanged.
+  int train_views = 0;
   std::string format;          // "", "colmap", "llff" or "nerf"; empty auto-detects
 };
 
@@ -59,6 +62,9 @@ class Scene {
   std::vector<SfmPoint> points;
   std::string points_file;  // the file `points` were read from ("" when the scene has none)
   bool has_tracks = false;
+  // K when the training views were thinned to K (SceneOptions::train_views): the scene's own SfM points
+  // then saw views that training must not, so fields triangulate their initial points from the K instead.
+  int few_shot_views = 0;
 
   // Decodes view i as RGB float32 in [0, 1] (CV_32FC3), resized, undistorted and cropped.
   cv::Mat load_image(int i) const;

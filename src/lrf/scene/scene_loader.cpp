@@ -115,6 +115,22 @@ std::vector<int> split_test(const Scene& scene, const RawScene& raw, const Scene
   return test;
 }
 
+// K of the n training views at positions round(j·(n-1)/(K-1)), j = 0..K-1, rounding halves to even: numpy's
+// linspace(0, n-1, K).round(), which is how RegNeRF, FreeNeRF, DNGaussian and FSGS choose LLFF's few views.
+std::vector<int> evenly_spaced(const std::vector<int>& train, int k, const std::string& root) {
+  const int n = static_cast<int>(train.size());
+  if (k > n) {
+    fail(root, "--train-views " + std::to_string(k) + " asks for more training views than the split leaves (" +
+                   std::to_string(n) + ")");
+  }
+  std::vector<int> kept;
+  for (int j = 0; j < k; ++j) {
+    const double position = k == 1 ? 0.0 : double(j) * double(n - 1) / double(k - 1);
+    kept.push_back(train[static_cast<size_t>(std::nearbyint(position))]);  // FE_TONEAREST: halves to even
+  }
+  return kept;
+}
+
 }  // namespace
 
 std::vector<Eigen::Vector2d> nominal_to_view_pixels(const View& v, const std::vector<Eigen::Vector2d>& pixels) {
@@ -204,6 +220,11 @@ Scene load_scene(const std::string& root, const SceneOptions& o) {
     if (!test.count(i)) scene.train_indices.push_back(i);
   }
   if (scene.train_indices.empty()) fail(root, "no training views left after the train/test split");
+  if (o.train_views < 0) fail("--train-views must be >= 0");
+  if (o.train_views > 0) {
+    scene.train_indices = evenly_spaced(scene.train_indices, o.train_views, root);
+    scene.few_shot_views = o.train_views;
+  }
   return scene;
 }
 

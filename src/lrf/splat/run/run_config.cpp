@@ -40,6 +40,7 @@ SceneOptions scene_options_from_config(const nlohmann::json& c, const std::strin
     o.crop_to_multiple_of_8 = c.value("crop_to_multiple_of_8", false);
     o.test_every = bounded_int(c, "test_every", path, 0, 1 << 30);
     o.test_list = c.value("test_list", std::string());
+    if (c.contains("few_shot_views")) o.train_views = bounded_int(c, "few_shot_views", path, 0, 1 << 30);
     o.format = c.value("scene_format", std::string());
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("missing or bad scene settings: ") + e.what());

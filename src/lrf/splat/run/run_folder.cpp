@@ -19,11 +19,17 @@ nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o
   j["downscale"] = o.downscale;
   j["crop_to_multiple_of_8"] = o.crop_to_multiple_of_8;
   j["test_every"] = o.test_every;
+  j["few_shot_views"] = o.train_views;
   j["test_list"] = o.test_list.empty() ? "" : fs::absolute(o.test_list).lexically_normal().string();
   if (!scene.views.empty())
     j["resolution"] = {scene.views.front().camera.width, scene.views.front().camera.height};
   j["train_views"] = scene.train_indices.size();
   j["test_views"] = scene.test_indices.size();
+  if (o.train_views > 0) {  // few-shot: which views, so the choice can be checked against other tools
+    nlohmann::json names = nlohmann::json::array();
+    for (int i : scene.train_indices) names.push_back(scene.views[static_cast<size_t>(i)].name);
+    j["few_shot_view_names"] = names;
+  }
   return j;
 }
 
