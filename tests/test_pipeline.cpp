@@ -102,6 +102,11 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("the field in this folder was made with other settings"), std::string::npos) << msg;
   EXPECT_NE(msg.find("iters (60 vs 61)"), std::string::npos) << msg;
+  // And the evaluation scene's fields with a few-shot split instead of every training view.
+  other = o;
+  other.eval_train_views = 3;
+  msg = error_of([&] { lrf::run_pipeline(other); });
+  EXPECT_NE(msg.find("few_shot_views (0 vs 3)"), std::string::npos) << msg;
   // A refinement with constant rates (the default) is continued to a larger step count, and its rows are
   // scored again; the other artefacts stay as they were.
   other = o;

@@ -16,7 +16,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       "The paper's three stages and its ablation: Stage I (encoder) on the training scenes, latent fields with the "
       "stock and the new encoder, Stage III (decoder) on the training scenes' fields, then on the evaluation scenes "
       "the rows stock / encoder / decoder / both, the stock and both fields refined through their decoder "
-      "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip and rgb: DIR/ablation.csv, "
+      "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip, rgb and rgb-mip: DIR/ablation.csv, "
       "DIR/ablation.md, DIR/report.html, "
       "DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
       "command is run again; a larger --refine-steps continues the finished refinements (with constant rates) and "
@@ -54,9 +54,10 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS (v0.1 VGG) weights; without them LPIPS is not computed");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default: $LRF_CACHE or ~/.cache/lrf)");
   lrf::cli::add_refine_options(cmd, &o->refine, "the +refine rows");
-  cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the image-space baselines (rgb/8, rgb/8-mip, and rgb if asked)");
+  cmd->add_flag("!--no-rgb", o->rgb_baseline, "Skip the image-space baselines (rgb/8, rgb/8-mip, and rgb, rgb-mip if asked)");
   cmd->add_flag("--rgb-full", o->rgb_full,
-                "Add the rgb row: an RGB field at full resolution (an upper reference; the costliest field to train)");
+                "Add the rgb and rgb-mip rows: RGB fields at full resolution, without and with Mip-Splatting's filters "
+                "(upper references, and Table 2's 3DGS and Mip-Splatting rows; the costliest fields to train)");
   cmd->add_flag("!--no-refine", o->refine_rows, "Skip the refined rows (stock+refine, both+refine)");
   lrf::cli::on_run(cmd, [o] {
     auto record = lrf::run_pipeline(*o);

@@ -58,12 +58,7 @@ void require_same_settings(const std::string& summary_path, const nlohmann::json
   if (!fs::exists(summary_path)) return;
   const nlohmann::json recorded = read_json_file(summary_path).value("settings", nlohmann::json());
   if (!recorded.is_object()) return;  // written before compare recorded its settings
-  std::string differ;
-  for (const auto& [key, value] : wanted.items()) {
-    if (recorded.contains(key) && recorded[key] != value) {
-      differ += " " + key + " (" + recorded[key].dump() + " vs " + value.dump() + ")";
-    }
-  }
+  const std::string differ = differing_settings(recorded, wanted);
   if (!differ.empty()) {
     fail(summary_path, "this folder holds methods made with other settings:" + differ +
                            "; use another output folder, or --force to retrain every method");

@@ -66,4 +66,14 @@ nlohmann::json read_json_file(const std::string& path) {
   }
 }
 
+std::string differing_settings(const nlohmann::json& recorded, const nlohmann::json& wanted) {
+  std::string differ;
+  for (const auto& [key, value] : wanted.items()) {
+    if (!recorded.contains(key) || recorded[key] != value) {
+      differ += " " + key + " (" + (recorded.contains(key) ? recorded[key].dump() : "none") + " vs " + value.dump() + ")";
+    }
+  }
+  return differ;
+}
+
 }  // namespace lrf

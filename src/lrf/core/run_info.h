@@ -19,5 +19,8 @@ nlohmann::json run_record(const nlohmann::json& options);
 void write_json_file(const std::string& path, const nlohmann::json& value);
 // Parses a JSON file, naming the file in any error.
 nlohmann::json read_json_file(const std::string& path);
+// Each setting of `wanted` that `recorded` lacks or holds with another value, as " key (recorded vs wanted)"
+// ("none" when lacking); empty when every one agrees. For refusing to reuse a result made otherwise.
+std::string differing_settings(const nlohmann::json& recorded, const nlohmann::json& wanted);
 
 }  // namespace lrf

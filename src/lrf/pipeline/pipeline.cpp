@@ -52,12 +52,7 @@ struct Paths {
 // naming each setting of `wanted` that the recorded ones lack or differ in.
 void require_same_settings(const std::string& record, const nlohmann::json& recorded, const nlohmann::json& wanted,
                            const std::string& what, const std::string& folder) {
-  std::string differ;
-  for (auto& [key, value] : wanted.items()) {
-    if (!recorded.contains(key) || recorded[key] != value) {
-      differ += " " + key + " (" + (recorded.contains(key) ? recorded[key].dump() : "none") + " vs " + value.dump() + ")";
-    }
-  }
+  const std::string differ = differing_settings(recorded, wanted);
   if (!differ.empty()) {
     fail(record, what + " in this folder was made with other settings than the pipeline's:" + differ +
                      "; use another output folder or remove " + folder);
@@ -254,8 +249,8 @@ std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
 }  // namespace
 
 const std::vector<std::string>& ablation_rows() {
-  static const std::vector<std::string> rows = {"rgb/8",   "rgb/8-mip", "rgb",  "stock",        "encoder",
-                                                "decoder", "both",      "stock+refine", "both+refine"};
+  static const std::vector<std::string> rows = {"rgb/8",   "rgb/8-mip", "rgb",          "rgb-mip",    "stock",
+                                                "encoder", "decoder",   "both",         "stock+refine", "both+refine"};
   return rows;
 }
 
@@ -364,7 +359,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         bool mip;
       };
       for (const Baseline& b : {Baseline{"rgb/8", "rgb8", 8, false}, Baseline{"rgb/8-mip", "rgb8mip", 8, true},
-                                Baseline{"rgb", "rgb", 1, false}}) {
+                                Baseline{"rgb", "rgb", 1, false}, Baseline{"rgb-mip", "rgbmip", 1, true}}) {
         if (b.factor == 1 && !o.rgb_full) continue;
         const std::string rgb = paths.field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);

@@ -7,8 +7,8 @@
 //             stock-encoder fields (the "decoder only" row), one on the new-encoder fields ("both")
 //   refine    the eval scenes' fields refined through a decoder against     DIR/fields/<scene>-{stock,ft}-refined
 //             their own training images (stock field + stock decoder; Stage I field + Stage III decoder)
-//   baselines RGB fields on each evaluation scene: rgb/8 and rgb/8-mip at     DIR/fields/<scene>-{rgb8,rgb8mip,rgb}
-//             latent resolution, rgb at full resolution
+//   baselines RGB fields on each evaluation scene: rgb/8 and rgb/8-mip at     DIR/fields/<scene>-{rgb8,rgb8mip,
+//             latent resolution, rgb and rgb-mip at full resolution            rgb,rgbmip}
 //   scores    DIR/eval/<scene>/<row>/metrics.json, DIR/ablation.csv / .md, DIR/report.html
 // Every artefact is kept; a re-run reuses what is finished and resumes what was interrupted. DIR/pipeline.json
 // records the inputs of every stage (the evidence that evaluation scenes fed no training).
@@ -36,11 +36,11 @@ struct PipelineOptions {
   int eval_train_views = 0;         // few-shot: the evaluation scenes' fields see K training views (0 = all)
   RefineOptions refine;             // the refined rows: steps, crop, learning rates (the rest is set here)
   bool rgb_baseline = true;         // the rgb/8 and rgb/8-mip rows
-  bool rgb_full = false;            // the rgb row (full resolution: the most costly field, so on request)
+  bool rgb_full = false;            // the rgb and rgb-mip rows (full resolution: the most costly fields, on request)
   bool refine_rows = true;          // the stock+refine and both+refine rows
 };
 
-// The ablation rows, in table order: the image-space baselines (rgb/8, rgb/8-mip, rgb), the paper's
+// The ablation rows, in table order: the image-space baselines (rgb/8, rgb/8-mip, rgb, rgb-mip), the paper's
 // rows (stock, encoder, decoder, both), then the refined fields (stock+refine, both+refine).
 const std::vector<std::string>& ablation_rows();
 
