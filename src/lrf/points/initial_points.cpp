@@ -49,7 +49,10 @@ void add_shell(const Scene& scene, const InitPointsOptions& o, InitialPoints* ip
 
 InitialPoints triangulated_or_random(const Scene& scene, const InitPointsOptions& o) {
   log_info(scene.points.empty() ? "the scene has no SfM points: triangulating them from the training views"
-                                : "triangulating points from the training views (--init-points triangulate)");
+           : o.mode == "auto"     ? "few-shot split: triangulating points from its " +
+                                    std::to_string(scene.train_indices.size()) +
+                                    " training views (the scene's SfM points also saw the test views)"
+                                  : std::string("triangulating points from the training views (--init-points triangulate)"));
   CachedTriangulation c = triangulate_cached(scene, for_training(o), cache_dir_of(o));
   const nlohmann::json entry = {{"cache", c.path}, {"cached", c.hit}, {"stats", c.stats}};
   std::string why;
