@@ -10,6 +10,7 @@
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
@@ -40,9 +41,7 @@ std::string method_dir(const std::string& method) {
 // What every method's field depends on beyond its own name. Finished methods are reused, so a folder made
 // with other settings is refused rather than mixed into one table.
 nlohmann::json compare_settings(const CompareOptions& o) {
-  std::error_code ec;
-  const fs::path scene = fs::weakly_canonical(o.scene, ec);
-  return {{"scene", ec ? o.scene : scene.string()},
+  return {{"scene", canonical_path(o.scene)},
           {"images", o.images},
           {"downscale", o.downscale},
           {"test_every", o.test_every},
@@ -230,9 +229,11 @@ nlohmann::json run_compare(const CompareOptions& o) {
                          Better::lower, Better::lower,  Better::lower,  Better::none,
                          Better::lower, Better::higher, Better::higher, Better::lower};
   const Camera& c0 = scene.views[0].camera;
+  std::vector<std::string> training_views;  // named in the report and compare.json when few-shot
+  for (int i : scene.train_indices) training_views.push_back(scene.views[static_cast<size_t>(i)].name);
   if (o.train_views > 0) {
     std::string names;
-    for (int i : scene.train_indices) names += (names.empty() ? "" : ", ") + scene.views[static_cast<size_t>(i)].name;
+    for (const auto& name : training_views) names += (names.empty() ? "" : ", ") + name;
     spec.notes.push_back("Few-shot: every method trained on " + std::to_string(o.train_views) +
                          " views, evenly spaced over the non-test views (" + names +
                          "), with initial points triangulated from them (unless --init-points says otherwise).");
@@ -243,7 +244,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        "3D Gaussian splatting trained on the views downscaled 8x and rendered at full resolution "
                        "(the paper's 3DGS/8 and Mip-Splatting/8); latent: a latent field with the " +
                        o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE). " + std::to_string(o.iters) +
-                       " iterations. rgb, rgb-mip: RGB 3D Gaussian splatting (rgb-mip with Mip-Splatting's filters) on the full-resolution views. latent-refined: "
+                       " iterations. rgb, rgb-mip: RGB 3D Gaussian splatting (rgb-mip with Mip-Splatting's "
+                       "filters) on the full-resolution views. latent-refined: "
                        "the latent field refined through the decoder against the training images (lrf refine: " +
                        refine_description(o.refine) + ").");
   if (!all.empty() && all.begin()->value("lpips", nlohmann::json()).is_null())
@@ -273,11 +275,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
   write_html_report((fs::path(o.out) / "report.html").string(), spec);
   nlohmann::json summary = {
       {"methods", all}, {"settings", settings}, {"run", run_record({{"scene", o.scene}, {"iters", o.iters}})}};
-  if (o.train_views > 0) {
-    nlohmann::json names = nlohmann::json::array();
-    for (int i : scene.train_indices) names.push_back(scene.views[static_cast<size_t>(i)].name);
-    summary["training_views"] = names;
-  }
+  if (o.train_views > 0) summary["training_views"] = training_views;
   write_json_file(summary_path, summary);
   return summary;
 }

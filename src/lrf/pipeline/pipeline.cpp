@@ -8,6 +8,7 @@
 
 #include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -26,13 +27,7 @@ namespace fs = std::filesystem;
 namespace lrf {
 namespace {
 
-std::string canonical(const std::string& p) {
-  std::error_code ec;
-  fs::path c = fs::weakly_canonical(p, ec);
-  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
-}
-
-std::string scene_name(const std::string& root) { return fs::path(canonical(root)).filename().string(); }
+std::string scene_name(const std::string& root) { return fs::path(canonical_path(root)).filename().string(); }
 
 struct Paths {
   std::string root;
@@ -62,7 +57,7 @@ void require_same_settings(const std::string& record, const nlohmann::json& reco
 // The settings that decide a field: scene, resolution, length, seed and (latent) the autoencoder's identity.
 nlohmann::json field_settings(const std::string& scene, int downscale, int train_views, int64_t iters, uint64_t seed,
                               const std::string& autoencoder_id) {
-  nlohmann::json j = {{"scene", canonical(scene)}, {"downscale", downscale}, {"few_shot_views", train_views},
+  nlohmann::json j = {{"scene", canonical_path(scene)}, {"downscale", downscale}, {"few_shot_views", train_views},
                       {"iters", iters}, {"seed", seed}};
   if (!autoencoder_id.empty()) j["autoencoder_identity"] = autoencoder_id;
   return j;
@@ -153,7 +148,8 @@ void ensure_refined_field(const PipelineOptions& o, const std::string& field, co
       log_info("reusing refined field " + dir);
       return;
     }
-    log_info("continuing refined field " + dir + " from step " + std::to_string(done) + " to " + std::to_string(r.steps));
+    log_info("continuing refined field " + dir + " from step " + std::to_string(done) + " to " +
+             std::to_string(r.steps));
     r.resume = true;
     r.force = false;
     refine_latent_field(r);
@@ -227,7 +223,8 @@ std::optional<nlohmann::json> reusable_scores(const std::string& metrics) {
 nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,
                                   const std::string& dir) {
   auto scores = reusable_scores((fs::path(dir) / "metrics.json").string());
-  if (scores && scores->value("field_stamp", std::string()) == file_stamp((fs::path(field) / "point_cloud.ply").string())) {
+  const std::string field_stamp = file_stamp((fs::path(field) / "point_cloud.ply").string());
+  if (scores && scores->value("field_stamp", std::string()) == field_stamp) {
     return *scores;
   }
   LatentEvalOptions e;
@@ -241,7 +238,8 @@ nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& f
 std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
   std::vector<std::string> scenes;
   for (const auto& f : fields) {
-    scenes.push_back(canonical(read_json_file((fs::path(f) / "config.json").string()).value("scene", std::string())));
+    const nlohmann::json config = read_json_file((fs::path(f) / "config.json").string());
+    scenes.push_back(canonical_path(config.value("scene", std::string())));
   }
   return scenes;
 }
@@ -260,9 +258,11 @@ bool image_space_row(const std::string& row) { return row.rfind("rgb", 0) == 0; 
 
 void check_no_overlap(const std::vector<std::string>& train_scenes, const std::vector<std::string>& eval_scenes) {
   std::set<std::string> train;
-  for (const auto& t : train_scenes) train.insert(canonical(t));
+  for (const auto& t : train_scenes) train.insert(canonical_path(t));
   for (const auto& e : eval_scenes) {
-    if (train.count(canonical(e))) fail(e, "is both a training and an evaluation scene; evaluation scenes must be unseen");
+    if (train.count(canonical_path(e))) {
+      fail(e, "is both a training and an evaluation scene; evaluation scenes must be unseen");
+    }
   }
 }
 
@@ -293,8 +293,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"stage1", encoder_finetune_options_json(o.stage1)},
                            {"seed", o.seed},
                            {"eval_train_views", o.eval_train_views}};
-  for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical(s));
-  for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical(s));
+  for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical_path(s));
+  for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical_path(s));
   nlohmann::json record = run_record(inputs);
   const std::string record_path = (fs::path(o.out) / "pipeline.json").string();
   write_json_file(record_path, record);

@@ -9,6 +9,7 @@
 
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
@@ -26,15 +27,11 @@ namespace fs = std::filesystem;
 namespace lrf {
 namespace {
 
-std::string canonical(const std::string& p) {
-  std::error_code ec;
-  fs::path c = fs::weakly_canonical(p, ec);
-  return ec ? fs::absolute(p).lexically_normal().string() : c.string();
-}
-
 void check_options(const RefineOptions& o) {
   if (o.run.empty() || o.out.empty()) fail("refine: give the latent run to refine and an output folder (-o)");
-  if (canonical(o.run) == canonical(o.out)) fail(o.out, "refine writes a new run: choose another output folder");
+  if (canonical_path(o.run) == canonical_path(o.out)) {
+    fail(o.out, "refine writes a new run: choose another output folder");
+  }
   if (o.steps < 1) fail("refine: --steps must be at least 1");
   if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
   if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
@@ -82,7 +79,7 @@ nlohmann::json refine_resume_key(const RefineOptions& o) {
   // A decaying schedule depends on the run's length: then --steps may not change on resume.
   for (const char* k : {"checkpoint_every", "resume", "force", "out"}) j.erase(k);
   if (o.lr_final == 1) j.erase("steps");
-  j["run"] = canonical(o.run);
+  j["run"] = canonical_path(o.run);
   return j;
 }
 
@@ -186,7 +183,7 @@ RefineResult refine_latent_field(const RefineOptions& o) {
     config["refine_source_decoder"] = decoder;
   }
   config["refine"] = run_record(refine_options_json(o));
-  config["refine"]["refined_from"] = canonical(o.run);
+  config["refine"]["refined_from"] = canonical_path(o.run);
   config["refine"]["resume_key"] = refine_resume_key(o);
   config["refine"]["decoder_local_reach"] = reach;
   write_json_file(config_path, config);
