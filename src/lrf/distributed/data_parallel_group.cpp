@@ -171,10 +171,11 @@ void DataParallelGroup::require_same_as_main(const nlohmann::json& description, 
   differs[static_cast<size_t>(rank_)] = mine == main ? 0.0 : 1.0;
   sum(differs);
   std::string message;
-  const nlohmann::json main_json = nlohmann::json::parse(main);
+  // Flattened ("/options/lambda_reg"), so that the message names the very setting that differs.
+  const nlohmann::json main_json = nlohmann::json::parse(main).flatten();
   for (int r = 0; r < world_size_; ++r) {
     if (differs[static_cast<size_t>(r)] == 0) continue;
-    const nlohmann::json other = nlohmann::json::parse(string_of(impl_->store->get(key + std::to_string(r))));
+    const nlohmann::json other = nlohmann::json::parse(string_of(impl_->store->get(key + std::to_string(r)))).flatten();
     std::string d = differing_settings(other, main_json);
     if (d.empty()) d = " (settings missing on rank 0)";
     message += "; rank " + std::to_string(r) + " differs from rank 0 in" + d;
