@@ -5,6 +5,7 @@
 #define USE_C10D_GLOO 1
 #endif
 #include <atomic>
+#include <memory>
 #include <thread>
 
 #include <torch/csrc/distributed/c10d/ProcessGroupGloo.hpp>
@@ -21,7 +22,9 @@ struct DataParallelGroup::Impl {
   c10::intrusive_ptr<c10d::ProcessGroupGloo> group;
   c10::intrusive_ptr<c10d::TCPStore> pulse_store;  // a connection of the heartbeat thread's own
   std::thread pulse;
-  std::atomic<bool> stop{false};
+  // Shared with the heartbeat thread, which may outlive this object (detached after a failure).
+  std::shared_ptr<std::atomic<bool>> stop = std::make_shared<std::atomic<bool>>(false);
+  bool failed = false;  // a rank stopped: the heartbeat may hang on a store that no longer answers
 };
 
 }  // namespace lrf

@@ -81,7 +81,7 @@ DataParallelGroup::DataParallelGroup(const DistributedOptions& o, const std::str
   // The heartbeat: a counter in the store that moves twice a second while this process lives and is not
   // stopped. It runs on its own connection so a collective in progress never delays it.
   auto store = impl_->pulse_store;
-  auto* stop = &impl_->stop;
+  auto stop = impl_->stop;
   const std::string key = alive_key(rank_);
   impl_->pulse = std::thread([store, stop, key] {
     while (!stop->load()) {
@@ -97,9 +97,15 @@ DataParallelGroup::DataParallelGroup(const DistributedOptions& o, const std::str
 
 DataParallelGroup::~DataParallelGroup() {
   if (!impl_) return;
-  impl_->stop = true;
-  // A heartbeat blocked on a store that no longer answers must not keep the process alive.
-  if (impl_->pulse.joinable()) impl_->pulse.detach();
+  *impl_->stop = true;
+  if (!impl_->pulse.joinable()) return;
+  // After a failure the heartbeat may be blocked on a store that no longer answers: it must not keep the
+  // process alive (it owns what it uses). Otherwise it ends within its half-second sleep.
+  if (impl_->failed) {
+    impl_->pulse.detach();
+  } else {
+    impl_->pulse.join();
+  }
 }
 
 std::string DataParallelGroup::prefix() const {
@@ -188,6 +194,7 @@ void DataParallelGroup::require_same_as_main(const nlohmann::json& description, 
 
 void DataParallelGroup::fail_step(const std::string& where, const std::string& error, const std::string& advice) {
   if (!distributed()) fail(error);
+  impl_->failed = true;
   // Ask the store who is gone, on a thread of its own: a store whose host is stopped may not answer.
   struct Finding {
     std::string text;
