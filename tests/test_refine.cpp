@@ -20,6 +20,7 @@
 #include "lrf/splat/ply_io.h"
 #include "lrf/splat/render_field.h"
 #include "lrf/splat/train/loss.h"
+#include "lrf/splat/train/spatial_order.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -297,6 +298,26 @@ TEST_F(RefineRun, LatentAnchorKeepsTheFieldNearTheEncodedViews) {
   EXPECT_LT(on, before);
 }
 
+// --geometry-lr-scale 0: the means, scales, rotations and opacities stay exactly as Stage II left them
+// while the latent features still move (a broken freeze moves the means at the first Adam step).
+TEST_F(RefineRun, FrozenGeometryMovesOnlyTheFeatures) {
+  auto o = options("frozen", 10);
+  o.geometry_lr_scale = 0;
+  lrf::refine_latent_field(o);
+  auto before = lrf::splat::read_ply(*dir_ / "field/point_cloud.ply", 32);
+  auto after = lrf::splat::read_ply(*dir_ / "frozen/point_cloud.ply", 32);
+  ASSERT_EQ(before.size(), after.size());
+  // The trainer stores its Gaussians in spatial order; put the source field in the same order.
+  before.permute_rows(lrf::splat::spatial_order(before.means));
+  EXPECT_TRUE(torch::equal(before.means, after.means));
+  EXPECT_TRUE(torch::equal(before.log_scales, after.log_scales));
+  EXPECT_TRUE(torch::equal(before.quats, after.quats));
+  EXPECT_TRUE(torch::equal(before.opacity_logits, after.opacity_logits));
+  EXPECT_FALSE(torch::equal(before.sh, after.sh));
+  const auto config = lrf::read_json_file(*dir_ / "frozen/config.json");
+  EXPECT_EQ(config["refine"]["options"]["geometry_lr_scale"].get<double>(), 0.0);
+}
+
 TEST_F(RefineRun, BadInputIsReported) {
   auto same = options("x", 5);
   same.out = same.run;
@@ -315,6 +336,10 @@ TEST_F(RefineRun, BadInputIsReported) {
   auto anchor = options("u", 5);
   anchor.lambda_latent = -1;
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(anchor); }).find("--lambda-latent"), std::string::npos);
+  auto geometry = options("t", 5);
+  geometry.geometry_lr_scale = -1;
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(geometry); }).find("--geometry-lr-scale"),
+            std::string::npos);
   auto cli = lrf::test::run_lrf("refine " + (*dir_ / "no_such_run") + " -o " + (*dir_ / "w"));
   EXPECT_NE(cli.exit_code, 0);
   EXPECT_NE(cli.output.find("config.json"), std::string::npos) << cli.output;

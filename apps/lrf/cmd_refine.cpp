@@ -30,6 +30,10 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--position-lr", o->position_lr, "Learning rate of the means, times the scene extent")
       ->capture_default_str();
+  cmd->add_option("--geometry-lr-scale", o->geometry_lr_scale,
+                  "Multiplies the learning rates of the means, scales, rotations and opacities (0 = Stage II's "
+                  "geometry stays, only the latent features and the decoder adapt)")
+      ->capture_default_str();
   cmd->add_option("--lr-final", o->lr_final,
                   "Every learning rate decays log-linearly to this fraction of itself by the last step (1 = constant)")
       ->capture_default_str();

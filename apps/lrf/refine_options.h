@@ -16,6 +16,10 @@ inline void add_refine_options(CLI::App* cmd, RefineOptions* o, const std::strin
   cmd->add_option("--refine-crop", o->crop, p + "supervised square per step in pixels (0 = whole view)")
       ->capture_default_str();
   cmd->add_option("--refine-lr-scale", o->lr_scale, p + "multiplies Stage II's learning rates")->capture_default_str();
+  cmd->add_option("--refine-geometry-lr-scale", o->geometry_lr_scale,
+                  p + "multiplies the rates of means, scales, rotations and opacities (0 = Stage II's geometry "
+                      "stays)")
+      ->capture_default_str();
   cmd->add_option("--refine-decoder-lr", o->decoder_lr,
                   p + "Adam rate at which the decoder adapts to the scene's training views with the field "
                       "(0 = frozen decoder)")

@@ -36,6 +36,7 @@ void check_options(const RefineOptions& o) {
   if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
   if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
+  if (!(o.geometry_lr_scale >= 0)) fail("refine: --geometry-lr-scale must be 0 (frozen geometry) or positive");
   if (!(o.decoder_lr >= 0)) fail("refine: --decoder-lr must be 0 (frozen decoder) or positive");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail("refine: --lambda-ssim must be in [0, 1]");
   if (!(o.lambda_latent >= 0)) fail("refine: --lambda-latent must be 0 or positive");
@@ -59,6 +60,8 @@ std::string refine_description(const RefineOptions& o) {
   if (o.crop > 0) s << " on " << o.crop << " px windows";
   if (o.decoder_lr > 0) s << ", decoder adapted at Adam rate " << o.decoder_lr;
   else s << ", frozen decoder";
+  if (o.geometry_lr_scale == 0) s << ", geometry frozen";
+  else if (o.geometry_lr_scale != 1) s << ", geometry rates x" << o.geometry_lr_scale;
   if (o.densify_until > 0) s << ", densified until step " << o.densify_until;
   if (o.lambda_latent > 0) s << ", latent anchor weight " << o.lambda_latent;
   return s.str();
@@ -67,7 +70,8 @@ std::string refine_description(const RefineOptions& o) {
 nlohmann::json refine_options_json(const RefineOptions& o) {
   return {{"run", o.run},         {"out", o.out},           {"decoder", o.decoder},
           {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
-          {"position_lr", o.position_lr}, {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
+          {"position_lr", o.position_lr}, {"geometry_lr_scale", o.geometry_lr_scale},
+          {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
           {"decoder_lr", o.decoder_lr}, {"lambda_latent", o.lambda_latent},
           {"densify_until", o.densify_until}, {"densify_interval", o.densify_interval},
           {"densify_grad", o.densify_grad}, {"seed", o.seed},
@@ -147,12 +151,12 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   to.schedule.sh_degree_every = 1;
   to.densify.grad_threshold = o.densify_grad;
   LearningRates lr;
-  lr.position_init = o.position_lr;
-  lr.position_final = o.position_lr * o.lr_final;
+  lr.position_init = o.position_lr * o.geometry_lr_scale;
+  lr.position_final = o.position_lr * o.geometry_lr_scale * o.lr_final;
   lr.others_final_factor = o.lr_final;
-  lr.scales *= o.lr_scale;
-  lr.rotations *= o.lr_scale;
-  lr.opacity *= o.lr_scale;
+  lr.scales *= o.lr_scale * o.geometry_lr_scale;
+  lr.rotations *= o.lr_scale * o.geometry_lr_scale;
+  lr.opacity *= o.lr_scale * o.geometry_lr_scale;
   lr.sh_dc *= o.lr_scale;
   lr.sh_rest *= o.lr_scale;
   to.lr = lr;

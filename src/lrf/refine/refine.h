@@ -27,6 +27,10 @@ struct RefineOptions {
   int crop = 0;          // side of the supervised square in image pixels (multiple of 8); 0 = the whole view
   double lr_scale = 1;   // multiplies Stage II's (Inria's) rates of features, opacities, scales, rotations
   double position_lr = 1.6e-6;  // of the means, x the scene extent (Stage II's final rate)
+  // Multiplies the rates of the field's geometry (means, scales, rotations, opacities) on top of the
+  // above: 0 keeps Stage II's geometry and adapts only the latent features (and the decoder), so that no
+  // Gaussian can move to serve one training view alone.
+  double geometry_lr_scale = 1;
   double lr_final = 1;          // every rate decays log-linearly to this fraction of itself by the last step
   double lambda_ssim = 0.2;
   // > 0: the decoder is adapted to this scene with the field (Adam at this rate, on the same training

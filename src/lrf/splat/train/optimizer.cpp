@@ -46,6 +46,7 @@ GaussianAdam::GaussianAdam(const Gaussians& g, const LearningRates& lr, double e
 }
 
 double GaussianAdam::position_lr(int64_t step) const {
+  if (lr_.position_init <= 0 || lr_.position_final <= 0) return 0;  // frozen means (no log of 0)
   const double t = std::clamp(double(step) / double(total_), 0.0, 1.0);
   return extent_ * std::exp(std::log(lr_.position_init) * (1 - t) + std::log(lr_.position_final) * t);
 }
