@@ -8,11 +8,14 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/splat/ply_io.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -92,6 +95,52 @@ TEST(LatentField, ShortFitOnSyntheticSceneRendersHeldOutViews) {
   } catch (const lrf::Error& e) {
     EXPECT_NE(std::string(e.what()).find("autoencoder's files changed"), std::string::npos) << e.what();
   }
+}
+
+// --rgb-guide: every training target gains the view's image at latent resolution (8x8 means) times the
+// weight, the field trains with C + 3 channels, and what it writes is a plain C-channel latent field
+// (which eval opens); and the guide changes the fit (a guide dropped before training gives the unguided
+// field bit for bit).
+TEST(LatentField, RgbGuideChannelsShapeTheFitAndAreDroppedFromTheField) {
+  lrf::test::TempDir tmp("latent_guide");
+  lrf::SceneOptions so;
+  so.crop_to_multiple_of_8 = true;
+  const std::string scene_dir = lrf::test::synthetic_scene({8, "64x48", 5, 600});
+  lrf::Scene scene = lrf::load_scene(scene_dir, so);
+  auto ae = lrf::load_autoencoder(taef2());
+  auto encoded = lrf::encode_views_cached(scene, scene.train_indices, *ae, lrf::autoencoder_identity(taef2(), ""),
+                                          (tmp / "cache"));
+  const int c = ae->latent_channels();
+  auto data = lrf::prepare_latent_training(scene, encoded.latents, lrf::LatentInit::latents, 0, 0, {}, 2.0);
+  ASSERT_EQ(data.views[1].target.size(0), c + 3);
+  EXPECT_EQ(data.init.channels(), c + 3);
+  // One latent cell's guide is twice the mean of its 8x8 pixels.
+  const at::Tensor image = lrf::image_to_batch(scene.load_image(scene.train_indices[1]))[0];
+  const double mean = image.index({1, at::indexing::Slice(8, 16), at::indexing::Slice(16, 24)}).mean().item<double>();
+  EXPECT_NEAR(data.views[1].target[c + 1][1][2].item<double>(), 2 * mean, 1e-5);
+
+  lrf::LatentTrainOptions o;
+  o.scene = scene_dir;
+  o.autoencoder = taef2();
+  o.iters = 40;
+  o.cache_dir = tmp / "cache";
+  o.rgb_guide = 1;
+  o.out = tmp / "guided";
+  lrf::train_latent_field(o);
+  auto plain = o;
+  plain.rgb_guide = 0;
+  plain.out = tmp / "plain";
+  lrf::train_latent_field(plain);
+
+  const auto guided = lrf::splat::read_ply(tmp / "guided/point_cloud.ply", c);
+  const auto unguided = lrf::splat::read_ply(tmp / "plain/point_cloud.ply", c);
+  EXPECT_EQ(guided.channels(), c);
+  EXPECT_FALSE(guided.size() == unguided.size() && torch::equal(guided.means, unguided.means));
+  EXPECT_EQ(lrf::read_json_file(tmp / "guided/config.json")["rgb_guide"].get<double>(), 1.0);
+  EXPECT_GT(lrf::evaluate_latent_run(tmp / "guided", {})["psnr"].get<double>(), 5.0);
+  o.rgb_guide = -1;
+  o.out = tmp / "bad";
+  EXPECT_NE(lrf::test::error_of([&] { lrf::train_latent_field(o); }).find("--rgb-guide"), std::string::npos);
 }
 
 }  // namespace

@@ -37,6 +37,7 @@ struct TrainOptions {
   std::string autoencoder = "taef2";
   std::string encoder;
   std::string init = "latents";
+  double rgb_guide = 0;
   std::string cache_dir;
   lrf::InitPointsOptions init_points;
 };
@@ -49,6 +50,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.autoencoder = o.autoencoder;
   l.encoder = o.encoder;
   l.init = o.init;
+  l.rgb_guide = o.rgb_guide;
   l.cache_dir = o.cache_dir;
   l.downscale = o.scene_options.downscale;
   l.test_every = o.scene_options.test_every;
@@ -65,6 +67,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.force = o.force;
   l.sparse_adam = o.sparse_adam;
   l.init_points = points;
+  if (o.rgb_guide != 0 && o.space != "latent") lrf::fail("--rgb-guide applies to latent fields");
   if (o.mip) lrf::fail("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
   lrf::train_latent_field(l);
   return 0;
@@ -111,6 +114,7 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
       o.autoencoder = j.at("autoencoder").get<std::string>();
       o.encoder = j.at("encoder").get<std::string>();
       o.init = j.at("init").get<std::string>();
+      o.rgb_guide = j.value("rgb_guide", 0.0);
     } else {
       o.scene_options.test_list = j.at("test_list").get<std::string>();
       o.scene_options.format = j.at("format").get<std::string>();
@@ -221,6 +225,11 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("--init", o->init, "latent: starting features: latents (sampled from the training latents at the "
                                      "SfM points' projections) or rgb (the paper code's RGB-in-first-channels)")
       ->check(CLI::IsMember({"latents", "rgb"}))
+      ->capture_default_str();
+  cmd->add_option("--rgb-guide", o->rgb_guide,
+                  "latent: weight of 3 extra channels fitted to the training images at latent resolution (8x "
+                  "area-downsampled RGB) beside the latents and dropped when the field is written, so that the "
+                  "geometry also follows the views' consistent colours (0 = latents alone, the paper's Stage II)")
       ->capture_default_str();
   cmd->add_option("--cache-dir", o->cache_dir, "Where encoded views (latent) and triangulated points are cached "
                                                "(default $LRF_CACHE or ~/.cache/lrf)");

@@ -4,6 +4,7 @@
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/torch.h>
 
+#include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
 #include "lrf/latent/latent_init.h"
 #include "lrf/rgb/rgb_field.h"
@@ -24,7 +25,7 @@ LatentInit parse_latent_init(const std::string& name) {
 
 LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,
                                            LatentInit init, int sh_degree, uint64_t seed,
-                                           const InitPointsOptions& points) {
+                                           const InitPointsOptions& points, double rgb_guide) {
   if (train_latents.size() != scene.train_indices.size()) fail("one latent per training view expected");
   LatentTrainingData data;
   data.range = compute_latent_range(train_latents);
@@ -33,11 +34,16 @@ LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector
   for (size_t k = 0; k < train_latents.size(); ++k) {
     const View& v = scene.views.at(static_cast<size_t>(scene.train_indices[k]));
     auto zn = data.range.normalize(train_latents[k]).contiguous();
+    if (rgb_guide > 0) {
+      const torch::Tensor image = image_to_batch(scene.load_image(scene.train_indices[k]));  // [1, 3, 8h, 8w]
+      const torch::Tensor small = torch::avg_pool2d(image, 8)[0] * rgb_guide;
+      zn = torch::cat({zn, small.to(zn.dtype())}, 0).contiguous();
+    }
     cameras.push_back(v.camera);
     normalised.push_back(zn);
     data.views.push_back({v.name, latent_camera(v.camera), zn});
   }
-  const int channels = data.range.channels();
+  const int channels = data.range.channels() + (rgb_guide > 0 ? 3 : 0);
   torch::Tensor xyz, features;
   const InitialPoints initial = choose_initial_points(scene, points);
   data.init_points = initial.record;

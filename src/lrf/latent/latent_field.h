@@ -33,10 +33,14 @@ struct LatentTrainingData {
 };
 
 // Builds the training views and the starting field from the training views' raw latents, on the points
-// that choose_initial_points picks with `points`.
+// that choose_initial_points picks with `points`. rgb_guide > 0 appends 3 channels to every target: the
+// view's image area-downsampled to latent resolution, times rgb_guide (features started from the same
+// images). Unlike the stock encoder's latents these colours agree across views, so the geometry fitted
+// to both generalises better; the channels serve training only (the caller drops them from the field).
 LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,
                                            LatentInit init, int sh_degree, uint64_t seed,
-                                           const InitPointsOptions& points = InitPointsOptions{});
+                                           const InitPointsOptions& points = InitPointsOptions{},
+                                           double rgb_guide = 0);
 
 // Decodes a normalised latent [C, h, w] from a field: denormalise (clamped) then decode -> [3, 8h, 8w].
 torch::Tensor decode_normalised(Autoencoder& ae, const LatentRange& range, const torch::Tensor& normalised);

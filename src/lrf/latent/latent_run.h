@@ -25,6 +25,9 @@ constexpr int kDefaultLatentShDegree = 0;
 
 struct LatentTrainOptions {
   std::string scene, out, images, autoencoder = "taef2", encoder, init = "latents", cache_dir;
+  // > 0: the field carries 3 more channels fitted (times this weight) to the training images at latent
+  // resolution, and drops them when written (prepare_latent_training's rgb_guide).
+  double rgb_guide = 0;
   int downscale = 1, test_every = 8, sh_degree = 0;
   int train_views = 0;  // few-shot: K evenly spaced training views (SceneOptions::train_views); 0 = all
   int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;

@@ -22,7 +22,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
   return {{"scene", o.scene},       {"out", o.out},           {"images", o.images},
           {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
           {"downscale", o.downscale}, {"test_every", o.test_every}, {"train_views", o.train_views},
-          {"sh_degree", o.sh_degree},
+          {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
           {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
           {"checkpoint_every", o.checkpoint_every}};
@@ -33,6 +33,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   using namespace lrf::splat;
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
+  if (!(o.rgb_guide >= 0)) fail("--rgb-guide must be 0 (off) or a positive weight");
   LatentInit init = parse_latent_init(o.init);
   const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
 
@@ -56,7 +57,8 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
                                     o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
   const double encode_seconds = encode_clock.seconds();
   log_info(std::string("training latents ") + (cached.hit ? "read from " : "encoded, cached in ") + cached.path);
-  LatentTrainingData data = prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed, o.init_points);
+  LatentTrainingData data =
+      prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed, o.init_points, o.rgb_guide);
   log_info("initial field: " + data.init_description);
 
   TrainerOptions to;
@@ -66,7 +68,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   to.sparse_adam = o.sparse_adam;
   to.schedule = DensifySchedule::for_iterations(o.iters);
   to.densify.max_gaussians = o.max_gaussians;
-  to.background = torch::zeros({ae->latent_channels()});
+  to.background = torch::zeros({data.init.channels()});
   const double extent = scene.camera_extent();
 
   auto config = run_record(options_json(o));
@@ -82,6 +84,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   config["latent_channels"] = ae->latent_channels();
   config["latent_range"] = data.range.to_json();
   config["init"] = o.init;
+  config["rgb_guide"] = o.rgb_guide;
   config["init_points"] = data.init_points;
   const std::string config_path = (fs::path(o.out) / "config.json").string();
   write_json_file(config_path, config);
@@ -92,6 +95,13 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   ro.resume = o.resume;
   ro.checkpoint_every = o.checkpoint_every;
   ro.task = "train-latent";
+  const int64_t latent_channels = ae->latent_channels();
+  if (o.rgb_guide > 0) {
+    ro.exported = [latent_channels](splat::Gaussians g) {
+      g.sh = g.sh.narrow(2, 0, latent_channels).contiguous();
+      return g;
+    };
+  }
   auto summary = run_training(trainer, ro);
   config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},
                       {"encode_seconds", encode_seconds}, {"final_loss", summary.last_loss},

@@ -67,6 +67,10 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   const std::string ckpt = checkpoint_path(o.out);
   const std::string log_path = (fs::path(o.out) / "train_log.csv").string();
   const std::string ply_path = (fs::path(o.out) / "point_cloud.ply").string();
+  auto write_field = [&] {
+    Gaussians field = trainer.export_gaussians();
+    write_ply(ply_path, o.exported ? o.exported(std::move(field)) : field);
+  };
   std::string log_rows;
   double elapsed_before = 0;
   if (o.resume) {
@@ -93,7 +97,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
     write_file_atomic(log_path, kLogHeader + log_rows);
     trainer.save_checkpoint(ckpt);
     if (o.save_extra) o.save_extra();
-    write_ply(ply_path, trainer.export_gaussians());
+    write_field();
   };
 
   RunSummary summary;
@@ -140,7 +144,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
       trainer.load_checkpoint(ckpt);
       if (o.load_extra) o.load_extra();
       if (o.save_extra) o.save_extra();
-      write_ply(ply_path, trainer.export_gaussians());
+      write_field();
       log_error("kept the last good checkpoint (step " + std::to_string(trainer.steps_done()) + ") and wrote " +
                 ply_path + " from it");
     } else {
@@ -148,7 +152,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
     }
     throw;
   }
-  write_ply(ply_path, trainer.export_gaussians());
+  write_field();
   progress.finish({{"loss", summary.last_loss}, {"gaussians", double(trainer.gaussians().size())}});
   summary.steps = trainer.steps_done();
   summary.gaussians = trainer.gaussians().size();

@@ -34,6 +34,9 @@ struct RunOptions {
   // State kept beside the trainer's (e.g. a decoder trained with the field): written with every checkpoint
   // and at the end, read back on resume and when a divergence falls back to the last checkpoint.
   std::function<void()> save_extra, load_extra;
+  // What point_cloud.ply holds of the trained field (e.g. without channels that only guided training);
+  // unset: the field as the trainer exports it. Checkpoints keep the whole field either way.
+  std::function<Gaussians(Gaussians)> exported;
 };
 
 struct RunSummary {
