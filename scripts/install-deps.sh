@@ -9,7 +9,7 @@ packages=(
   libopencv-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3-numpy python3-torch
-  libcpp-httplib-dev
+  libcpp-httplib-dev chromium
 )
 # Optional: colmap (SfM tool of the field, used only when a user asks for it) and the PyTorch
 # reference used by tests that compare our networks with PyTorch's.
