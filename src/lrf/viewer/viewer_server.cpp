@@ -109,7 +109,9 @@ void ViewerServer::Impl::routes() {
       send_error(res, 405, "only GET requests are served");
       return httplib::Server::HandlerResponse::Handled;
     }
-    if (!req.body.empty()) {
+    // cpp-httplib reads no body for a GET, so a declared one is refused by its headers too.
+    const std::string length = req.get_header_value("Content-Length");
+    if (!req.body.empty() || req.has_header("Transfer-Encoding") || (!length.empty() && length != "0")) {
       send_error(res, 413, "requests carry no body");
       return httplib::Server::HandlerResponse::Handled;
     }
