@@ -77,7 +77,10 @@ std::string frame_path(const lrf::Camera& base, const std::string& client, long 
   return q.str();
 }
 
-Phase run_clients(int port, int clients, double seconds, const std::vector<lrf::Camera>& views, int multiple) {
+// `name` prefixes the clients' ids: a phase must not reuse another's ids, whose higher request numbers would
+// make its first requests stale.
+Phase run_clients(const std::string& name, int port, int clients, double seconds, const std::vector<lrf::Camera>& views,
+                  int multiple) {
   Phase phase;
   std::mutex mutex;
   const auto start = Clock::now();
@@ -88,7 +91,7 @@ Phase run_clients(int port, int clients, double seconds, const std::vector<lrf::
       httplib::Client client("127.0.0.1", port);
       client.set_read_timeout(120, 0);
       client.set_keep_alive(true);
-      const std::string id = "load" + std::to_string(k);
+      const std::string id = name + std::to_string(k);
       Phase mine;
       for (long seq = 1; Clock::now() < end; ++seq) {
         const bool full = seq % 4 == 0;
@@ -224,12 +227,12 @@ int main(int argc, char** argv) {
               std::max(multiple, (views[0].width / 2) / multiple * multiple),
               std::max(multiple, (views[0].height / 2) / multiple * multiple), seconds);
 
-  const Phase one = run_clients(port, 1, seconds, views, multiple);
+  const Phase one = run_clients("baseline", port, 1, seconds, views, multiple);
   print_phase("baseline", 1, one);
   std::atomic<bool> stop{false};
   Abuse abused;
   std::thread abuser([&] { abused = abuse(port, views[0], stop); });
-  const Phase many = run_clients(port, clients, seconds, views, multiple);
+  const Phase many = run_clients("load", port, clients, seconds, views, multiple);
   stop = true;
   abuser.join();
   print_phase("load", clients, many);
