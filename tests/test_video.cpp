@@ -119,6 +119,7 @@ TEST(Video, RenderPathCliRgb) {
   const Video v = read_video(tmp / "s.mp4");
   ASSERT_EQ(v.frames.size(), 6u);
   EXPECT_EQ(v.fourcc, "avc1");
+  std::vector<cv::Mat> pngs;
   for (int k = 0; k < 6; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "frames/frame_%04d.png", k);
@@ -126,11 +127,16 @@ TEST(Video, RenderPathCliRgb) {
     ASSERT_FALSE(png.empty()) << name;
     cv::cvtColor(png, png, cv::COLOR_BGR2RGB);
     ASSERT_EQ(png.size(), cv::Size(64, 48));
-    // The same frames in both outputs (up to the video's compression).
-    EXPECT_LT(mean_abs_diff(png, v.frames[static_cast<size_t>(k)]), 8.0) << k;
+    pngs.push_back(png);
   }
-  // The camera moves: consecutive frames differ by much more than the compression error.
-  EXPECT_GT(mean_abs_diff(v.frames[0], v.frames[3]), 2.0);
+  // The camera moves: the lossless frames of the first three angles differ widely (measured 43-55 of 255
+  // on the tiny field). Frame 3 repeats frame 0's angle after one of the spiral's two turns; only its
+  // depth would differ, and the synthetic cameras do not spread in depth.
+  EXPECT_GT(mean_abs_diff(pngs[0], pngs[1]), 20.0);
+  EXPECT_GT(mean_abs_diff(pngs[1], pngs[2]), 20.0);
+  // The same frames, in order, in both outputs: H.264 at its default rate loses 4-8.5 of 255 on these
+  // speckled 64x48 frames (measured), far below the 20+ that tells two angles apart.
+  for (size_t k = 0; k < pngs.size(); ++k) EXPECT_LT(mean_abs_diff(pngs[k], v.frames[k]), 12.0) << k;
 
   r = lrf::test::run_lrf("render '" + field + "' --path orbit --frames 3 --scale 2 --video '" + tmp.str() + "/o.mp4'");
   ASSERT_EQ(r.exit_code, 0) << r.output;

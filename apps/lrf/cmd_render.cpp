@@ -67,7 +67,10 @@ int run_render_path(const RenderOptions& o) {
                 r.frames, path.front().width, path.front().height, r.seconds, double(r.frames) / r.seconds,
                 1000.0 * r.render_seconds / double(r.frames), 1000.0 * r.decode_seconds / double(r.frames));
   log_info(line);
-  if (!vo.video.empty()) log_info("wrote " + vo.video + " (" + r.codec + ", " + std::to_string(o.fps) + " fps)");
+  if (!vo.video.empty()) {
+    std::snprintf(line, sizeof line, "%g", o.fps);
+    log_info("wrote " + vo.video + " (" + r.codec + ", " + line + " fps)");
+  }
   if (!vo.frames_dir.empty()) log_info("wrote " + std::to_string(r.frames) + " PNG frames to " + vo.frames_dir);
   return 0;
 }
