@@ -9,10 +9,15 @@ packages=(
   libopencv-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3-numpy python3-torch
+  libcpp-httplib-dev chromium
 )
-# Optional: colmap (SfM tool of the field, used only when a user asks for it) and the PyTorch
-# reference used by tests that compare our networks with PyTorch's.
+# libcpp-httplib-dev: lrf serve's HTTP server; chromium: the viewer's browser test (headless).
+# Optional: colmap (SfM tool of the field, used only when a user asks for it); node and npm for the test
+# that opens a field's .ply in the npm package @playcanvas/splat-transform (skipped without node; any
+# node >= 18 already on the machine is kept rather than replaced by Debian's).
 optional=(colmap)
+if ! command -v node > /dev/null; then optional+=(nodejs); fi
+if ! command -v npm > /dev/null; then optional+=(npm); fi
 
 sudo_cmd=()
 if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi

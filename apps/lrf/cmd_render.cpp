@@ -1,9 +1,14 @@
-// lrf render: images of a trained field for the scene's cameras, at any resolution.
+// lrf render: images of a trained field for the scene's cameras, at any resolution; or, with --path, a
+// camera-path video (spiral, orbit, interpolation through the training views).
+#include <cstdio>
 #include <filesystem>
 #include <memory>
 
 #include "command.h"
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/camera_path/camera_path.h"
+#include "lrf/frames/field_frames.h"
+#include "lrf/video/path_video.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
@@ -25,7 +30,50 @@ struct RenderOptions {
   double scale = 1.0;
   int width = 0, height = 0;
   std::string decoder;  // latent fields: decoder override (Stage III)
+  bool split_given = false;
+  // Camera-path videos (--path).
+  std::string path, video, frames_dir;
+  int frames = 120;
+  double fps = 30;
+  bool frames_given = false, fps_given = false;
 };
+
+// --path: the scene's camera path rendered into an MP4 (and PNG frames with --frames-dir).
+int run_render_path(const RenderOptions& o) {
+  using namespace lrf;
+  if (o.split_given) fail("--split chooses the scene's views; a --path video has its own cameras");
+  auto frames = FieldFrames::open(o.out, o.decoder);
+  if (frames->latent() && (o.scale != 1.0 || o.width > 0))
+    fail("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and decode at 8x");
+  const auto kind = camera_path::parse_path_kind(o.path);
+  camera_path::PathOptions po;
+  po.frames = o.frames;
+  camera_path::PathGeometry geometry;
+  auto path = camera_path::make_path(frames->scene(), kind, po, &geometry);
+  for (auto& c : path) c = splat::scaled_camera(c, o.scale, o.width, o.height);
+  video::PathVideoOptions vo;
+  vo.video = o.video;
+  vo.frames_dir = o.frames_dir;
+  vo.fps = o.fps;
+  if (vo.video.empty() && vo.frames_dir.empty()) {
+    vo.video = (fs::path(o.out) / "renders" / (o.path + ".mp4")).string();
+    fs::create_directories(fs::path(vo.video).parent_path());
+  }
+  log_info(frames->describe());
+  if (kind != camera_path::PathKind::interp) log_info(o.path + " around a target found from " + geometry.source);
+  const auto r = video::render_path_video(*frames, path, vo);
+  char line[256];
+  std::snprintf(line, sizeof line, "%ld frames of %dx%d in %.1f s: %.2f frames/s (render %.1f ms, decode %.1f ms per frame)",
+                r.frames, path.front().width, path.front().height, r.seconds, double(r.frames) / r.seconds,
+                1000.0 * r.render_seconds / double(r.frames), 1000.0 * r.decode_seconds / double(r.frames));
+  log_info(line);
+  if (!vo.video.empty()) {
+    std::snprintf(line, sizeof line, "%g", o.fps);
+    log_info("wrote " + vo.video + " (" + r.codec + ", " + line + " fps)");
+  }
+  if (!vo.frames_dir.empty()) log_info("wrote " + std::to_string(r.frames) + " PNG frames to " + vo.frames_dir);
+  return 0;
+}
 
 // Latent fields: the rendered latents (denormalised, safetensors, one tensor "latent" [C, h, w] per view)
 // and the decoded images, at the training latent resolution.
@@ -56,6 +104,9 @@ int run_render(const RenderOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
   if ((o.width > 0) != (o.height > 0)) fail("--width and --height go together");
+  if (!o.path.empty()) return run_render_path(o);
+  if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given)
+    fail("--video, --frames-dir, --frames and --fps go with --path");
   const bool latent = is_latent_run(o.out);
   LatentRun lrun;
   FieldRun run;
@@ -90,17 +141,31 @@ int run_render(const RenderOptions& o) {
 }
 
 lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
-  auto* cmd = root.add_subcommand("render", "Render a trained field (lrf train output): PNG images; latent fields also write the rendered latents");
+  auto* cmd = root.add_subcommand("render", "Render a trained field (lrf train output): PNG images of the scene's views (latent fields also write the "
+                                   "rendered latents), or a camera-path video with --path");
   auto o = std::make_shared<RenderOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train")->required();
-  cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
+  auto* split = cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
   cmd->add_option("-o,--dir", o->dir, "Folder for the images (default OUT/renders/SPLIT)");
   auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training")->capture_default_str();
   cmd->add_option("--width", o->width, "Render width in pixels (with --height)")->excludes(scale);
   cmd->add_option("--height", o->height, "Render height in pixels (with --width)")->excludes(scale);
   cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's; default: the decoder "
                   "a refined field was fitted through, else the autoencoder's)");
-  lrf::cli::on_run(cmd, [o] { return run_render(*o); });
+  cmd->add_option("--path", o->path, "Render a camera path instead of the scene's views: spiral (LLFF's spiral around "
+                  "the mean training pose, for forward-facing scenes), orbit (a turn around the SfM points' centre, for "
+                  "object scenes) or interp (smooth path through the training views)");
+  auto* frames = cmd->add_option("--frames", o->frames, "--path: number of frames")->capture_default_str();
+  auto* fps = cmd->add_option("--fps", o->fps, "--path: frames per second of the video")->capture_default_str();
+  cmd->add_option("--video", o->video, "--path: the MP4 file to write (H.264; default OUT/renders/PATH.mp4 unless "
+                  "--frames-dir is given)");
+  cmd->add_option("--frames-dir", o->frames_dir, "--path: also (or only) write the frames as PNG files into this folder");
+  lrf::cli::on_run(cmd, [o, split, frames, fps] {
+    o->split_given = split->count() > 0;
+    o->frames_given = frames->count() > 0;
+    o->fps_given = fps->count() > 0;
+    return run_render(*o);
+  });
 });
 
 }  // namespace

@@ -67,6 +67,8 @@ void write_atomic_with(const std::string& path, const std::function<void(const s
   rename_into_place(tmp, path);
 }
 
+void move_into_place(const std::string& tmp, const std::string& path) { rename_into_place(tmp, path); }
+
 std::string read_file(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) fail(path, "file not found");

@@ -10,6 +10,9 @@ void write_file_atomic(const std::string& path, const std::string& bytes);
 // For writers that need a path (OpenCV, libtorch): `write` writes to the given temporary path, then it
 // is fsynced and renamed to `path`. The temporary file is removed if `write` throws.
 void write_atomic_with(const std::string& path, const std::function<void(const std::string&)>& write);
+// For writers that must choose their own temporary name (FFmpeg picks a container from the extension):
+// fsyncs the finished `tmp` and renames it to `path` (removing `tmp` and throwing when that fails).
+void move_into_place(const std::string& tmp, const std::string& path);
 std::string read_file(const std::string& path);
 
 }  // namespace lrf

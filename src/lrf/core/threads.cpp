@@ -23,4 +23,8 @@ void set_thread_count(int n) {
 
 int thread_count() { return g_threads; }
 
+void apply_thread_count_to_this_thread() {
+  if (omp_get_max_threads() != g_threads) omp_set_num_threads(g_threads);
+}
+
 }  // namespace lrf

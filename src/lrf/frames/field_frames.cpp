@@ -1,0 +1,96 @@
+#include "lrf/frames/field_frames.h"
+
+#include <chrono>
+
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/error.h"
+#include "lrf/core/image_io.h"
+#include "lrf/core/threads.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_run.h"
+#include "lrf/splat/run/run_folder.h"
+
+namespace lrf {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+void check_size(const Camera& camera, int multiple) {
+  if (camera.width < multiple || camera.height < multiple || camera.width % multiple || camera.height % multiple)
+    fail("frame size " + std::to_string(camera.width) + "x" + std::to_string(camera.height) +
+         " is not a positive multiple of " + std::to_string(multiple));
+}
+
+class RgbFrames : public FieldFrames {
+ public:
+  explicit RgbFrames(const std::string& run) : run_(splat::open_field_run(run)) {}
+  bool latent() const override { return false; }
+  const Scene& scene() const override { return run_.scene; }
+  int size_multiple() const override { return 1; }
+  long gaussians() const override { return static_cast<long>(run_.field.size()); }
+  std::string describe() const override {
+    return "RGB field, " + std::to_string(gaussians()) + " Gaussians, SH degree " +
+           std::to_string(run_.render.sh_degree) + (run_.render.mip ? ", Mip-Splatting" : "");
+  }
+  cv::Mat render(const Camera& camera, FrameTiming* timing) override {
+    check_size(camera, 1);
+    apply_thread_count_to_this_thread();
+    torch::NoGradGuard no_grad;
+    const auto t0 = Clock::now();
+    auto image = splat::render_field(run_.field, camera, run_.render).image.clamp(0, 1);
+    cv::Mat frame = to_u8(tensor_to_image(image));
+    if (timing) *timing = {ms_since(t0), 0.0};
+    return frame;
+  }
+
+ private:
+  splat::FieldRun run_;
+};
+
+class LatentFrames : public FieldFrames {
+ public:
+  LatentFrames(const std::string& run, const std::string& decoder) : run_(open_latent_run(run)) {
+    decoder_ = decoder.empty() ? run_.decoder : decoder;
+    ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
+  }
+  bool latent() const override { return true; }
+  const Scene& scene() const override { return run_.scene; }
+  int size_multiple() const override { return 8; }
+  long gaussians() const override { return static_cast<long>(run_.field.size()); }
+  std::string describe() const override {
+    return "latent field (" + run_.autoencoder + ", " + std::to_string(run_.range.channels()) + " channels), " +
+           std::to_string(gaussians()) + " Gaussians, decoded by " +
+           (decoder_.empty() ? "the autoencoder's decoder" : decoder_);
+  }
+  cv::Mat render(const Camera& camera, FrameTiming* timing) override {
+    check_size(camera, 8);
+    apply_thread_count_to_this_thread();
+    torch::NoGradGuard no_grad;
+    const auto t0 = Clock::now();
+    auto zn = splat::render_field(run_.field, latent_camera(camera), run_.render).image;
+    const double render_ms = ms_since(t0);
+    const auto t1 = Clock::now();
+    auto image = decode_normalised(*ae_, run_.range, zn);
+    cv::Mat frame = to_u8(tensor_to_image(image));
+    if (timing) *timing = {render_ms, ms_since(t1)};
+    return frame;
+  }
+
+ private:
+  LatentRun run_;
+  std::string decoder_;
+  std::unique_ptr<Autoencoder> ae_;
+};
+
+}  // namespace
+
+std::unique_ptr<FieldFrames> FieldFrames::open(const std::string& run, const std::string& decoder) {
+  if (is_latent_run(run)) return std::make_unique<LatentFrames>(run, decoder);
+  if (!decoder.empty()) fail(run, "--decoder applies to latent fields; this is an RGB field");
+  return std::make_unique<RgbFrames>(run);
+}
+
+}  // namespace lrf
