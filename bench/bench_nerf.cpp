@@ -20,6 +20,7 @@
 #include "lrf/nerf/hash_encoding.h"
 #include "lrf/nerf/nerf_reference.h"
 #include "lrf/nerf/nerf_render.h"
+#include "lrf/nerf/ray_sampling.h"
 #include "lrf/nerf/nerf_trainer.h"
 
 namespace {
