@@ -2,8 +2,8 @@
 // The paper's Table 1 on one scene: image-space baselines at latent resolution (3DGS/8 and
 // Mip-Splatting/8: RGB fields trained on the views downscaled 8x and rendered at full resolution), the
 // full-resolution RGB field, the latent field with the stock autoencoder (3DGS-VAE) and that field refined
-// through the decoder (lrf refine), a NeRF fitted to the same latents (Latent-NeRF*), all scored on the same test views at the same resolution; a CSV /
-// markdown table and a self-contained HTML report.
+// through the decoder (lrf refine), a NeRF fitted to the same latents (Latent-NeRF*), all scored on the
+// same test views at the same resolution; a CSV / markdown table and a self-contained HTML report.
 #include <string>
 #include <vector>
 
