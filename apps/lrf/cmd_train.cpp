@@ -44,6 +44,7 @@ struct TrainOptions {
   lrf::InitPointsOptions init_points;
   // --space latent-nerf
   int rays = 1024, samples = 32, hash_log2 = 17;
+  bool nerf_option_set = false;  // one of the three above was given
 };
 
 int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points) {
@@ -106,6 +107,8 @@ int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) 
 
 // --resume of a latent NeRF: its recorded options, except --iters, --checkpoint-every and --cache-dir when given.
 int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
+  if (given.nerf_option_set)
+    lrf::fail("--rays, --samples and --hash-log2 are fixed when a latent NeRF starts; --resume keeps the recorded ones");
   auto n = lrf::nerf::recorded_nerf_options(given.out);
   n.resume = true;
   if (iters_given) n.iters = given.iters;
@@ -186,8 +189,9 @@ int run_train(const TrainOptions& o) {
   InitPointsOptions points = o.init_points;
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
   check_init_points_mode(points.mode);
-  if (o.space == "latent") return run_train_latent(o, points);
   if (o.space == "latent-nerf") return run_train_nerf(o, points);
+  if (o.nerf_option_set) fail("--rays, --samples and --hash-log2 apply to --space latent-nerf");
+  if (o.space == "latent") return run_train_latent(o, points);
   if (o.space != "rgb") fail("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
@@ -278,14 +282,18 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                                 "Training steps (default 30000; " + std::to_string(lrf::nerf::kDefaultNerfIters) +
                                     " for latent-nerf)")
                     ->each([o](const std::string&) { o->iters_set = true; });
+  const auto nerf_option = [o](const std::string&) { o->nerf_option_set = true; };
   cmd->add_option("--rays", o->rays, "latent-nerf: rays per training step (drawn from every training pixel)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->each(nerf_option);
   cmd->add_option("--samples", o->samples,
                   "latent-nerf: coarse samples per ray (stratified in disparity), and as many fine ones drawn from "
                   "the coarse weights")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->each(nerf_option);
   cmd->add_option("--hash-log2", o->hash_log2, "latent-nerf: log2 of the hash table's entries per grid level")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->each(nerf_option);
   cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3; default 3 for rgb, " +
                                                    std::to_string(lrf::kDefaultLatentShDegree) + " for latent)")
       ->each([o](const std::string&) { o->sh_degree_set = true; });
