@@ -140,8 +140,10 @@ TEST(NerfField, SavesAndLoadsAndRefusesDamagedFiles) {
 }
 
 // A short fit on the synthetic scene's latents (8x6 rays per view, 7 training views). Measured on the
-// development machine: the mean training loss of the first 20 steps 0.0?? falls to 0.0?? over the last 20, and
-// the held-out latent PSNR reaches ?? dB.
+// development machine: the mean training loss of the first 20 steps, 0.0335, falls to 0.0224 over the last
+// 20 (a ratio of 0.67), and the held-out latent PSNR reaches 15.45 dB (14.0 dB at the start; the decoded
+// view 14.67 dB against a round trip of 21.1 dB). A trainer that does not learn keeps the ratio near 1 (the
+// 20-step means of random batches differ by a few percent), hence the bound 0.8.
 class LatentNerfRun : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -191,12 +193,12 @@ TEST_F(LatentNerfRun, ShortFitLowersTheLossAndRendersTheTestViews) {
   EXPECT_TRUE(is_nerf_run(out));
   const double start = mean_logged_loss(out + "/train_log.csv", 0, 2), end = mean_logged_loss(out + "/train_log.csv", 13, 15);
   std::printf("training loss %.5f -> %.5f\n", start, end);
-  EXPECT_LT(end, 0.5 * start);
+  EXPECT_LT(end, 0.8 * start);
 
   const nlohmann::json m = evaluate_nerf_run(out, {});
   std::printf("held-out: latent PSNR %.2f dB, decoded PSNR %.2f dB (round trip %.2f)\n", m["latent_psnr"].get<double>(),
               m["psnr"].get<double>(), m["roundtrip_psnr"].get<double>());
-  EXPECT_GT(m["latent_psnr"].get<double>(), 14.0) << m.dump();
+  EXPECT_GT(m["latent_psnr"].get<double>(), 15.0) << m.dump();
   EXPECT_GT(m["psnr"].get<double>(), 14.0) << m.dump();
   EXPECT_TRUE(fs::exists(fs::path(out) / "eval/view_000.png"));
   EXPECT_GT(m["storage_mb"].get<double>(), 0.0);
@@ -258,6 +260,8 @@ TEST_F(LatentNerfRun, CliTrainsRendersEvaluatesAndRefusesBadInput) {
                                          {"train " + scene + common + " --samples 1 -o " + (*dir_ / "bad2"), "--samples"},
                                          {"train " + scene + common + " --mip -o " + (*dir_ / "bad3"), "--mip"},
                                          {"train " + scene + common + " -o " + out, "--force"},
+                                         {"train " + scene + " --space rgb --rays 64 -o " + (*dir_ / "bad5"), "--rays"},
+                                         {"train " + out + " --resume --samples 4 -o " + out, "fixed"},
                                          {"refine " + out + " -o " + (*dir_ / "bad4"), "latent NeRF"}}) {
     r = lrf::test::run_lrf(bad.args);
     EXPECT_NE(r.exit_code, 0) << bad.args << "\n" << r.output;
