@@ -8,6 +8,7 @@
 #include "init_points_options.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/compare/compare.h"
+#include "lrf/nerf/nerf_run.h"
 
 namespace {
 
@@ -15,7 +16,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   auto* cmd = root.add_subcommand(
       "compare",
       "Table 1 on one scene: rgb/8, rgb/8-mip, latent and refined latent fields (and the full-resolution rgb and "
-      "rgb-mip fields on request), scored on the test views; writes DIR/table.csv, table.md, the efficiency table "
+      "rgb-mip fields and a latent NeRF on request), scored on the test views; writes DIR/table.csv, table.md, the efficiency table "
       "(what each method is fitted to, training time, peak memory, storage, render and decode FPS) efficiency.csv, "
       "efficiency.md, and report.html");
   auto o = std::make_shared<lrf::CompareOptions>();
@@ -34,11 +35,16 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "Decoder weights to decode the latent field with, and to refine it through (Stage III)");
   cmd->add_option("--iters", o->iters, "Training steps of every method")->capture_default_str();
   cmd->add_option("--latent-iters", o->latent_iters, "Training steps of the latent field (0 = --iters)")->capture_default_str();
+  cmd->add_option("--nerf-iters", o->nerf_iters,
+                  "Training steps of the latent-nerf method (0 = its default, " +
+                      std::to_string(lrf::nerf::kDefaultNerfIters) + "; --iters counts Gaussian fields' steps)")
+      ->capture_default_str();
   cmd->add_option("--latent-sh-degree", o->latent_sh_degree, "SH degree of the latent field")->capture_default_str();
   cmd->add_option("--methods", o->methods,
                   "Methods to run: rgb, rgb-mip (full resolution, without / with Mip-Splatting's filters), rgb/8, "
                   "rgb/8-mip (RGB fields on 8x downscaled views), latent, "
-                  "latent-refined (the latent field refined through the decoder against the training images)")
+                  "latent-refined (the latent field refined through the decoder against the training images), "
+                  "latent-nerf (a hash-grid NeRF fitted to the same latents by volume rendering: Latent-NeRF*)")
       ->capture_default_str();
   lrf::cli::add_refine_options(cmd, &o->refine, "latent-refined");
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");

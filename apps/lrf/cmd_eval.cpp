@@ -4,6 +4,7 @@
 
 #include "command.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -24,12 +25,12 @@ struct EvalOptions {
   std::string lpips_weights;
 };
 
-int run_eval_latent(const EvalOptions& o) {
+int run_eval_latent(const EvalOptions& o, bool nerf) {
   if (o.scale != 1.0) lrf::fail("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
   lrf::LatentEvalOptions le;
   le.decoder = o.decoder;
   le.lpips_weights = o.lpips_weights;
-  auto m = lrf::evaluate_latent_run(o.out, le);
+  auto m = nerf ? lrf::nerf::evaluate_nerf_run(o.out, le) : lrf::evaluate_latent_run(o.out, le);
   nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
                           {"lpips", m["lpips"]},
                           {"roundtrip_psnr", m["roundtrip_psnr"]}, {"latent_psnr", m["latent_psnr"]},
@@ -42,7 +43,8 @@ int run_eval_latent(const EvalOptions& o) {
 int run_eval(const EvalOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
-  if (is_latent_run(o.out)) return run_eval_latent(o);
+  if (nerf::is_nerf_run(o.out)) return run_eval_latent(o, true);
+  if (is_latent_run(o.out)) return run_eval_latent(o, false);
   if (!o.decoder.empty() || !o.lpips_weights.empty()) fail("--decoder and --lpips-weights apply to latent fields");
   auto run = open_field_run(o.out);
   if (run.scene.test_indices.empty()) fail(o.out, "the scene has no test views");
@@ -90,8 +92,8 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
   auto o = std::make_shared<EvalOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train")->required();
   cmd->add_option("--scale", o->scale, "Evaluate at this multiple of the training resolution")->capture_default_str();
-  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's; default: the decoder "
-                  "a refined field was fitted through, else the autoencoder's)");
+  cmd->add_option("--decoder", o->decoder, "Latent fields (and latent NeRFs): decode with these decoder weights (e.g. Stage III's; default: "
+                  "the decoder a refined field was fitted through, else the autoencoder's)");
   cmd->add_option("--lpips-weights", o->lpips_weights,
                   "Latent fields: LPIPS (VGG, lpips v0.1 layout: net.slice*/lin* keys) weights file; without it "
                   "metrics.json has \"lpips\": null and the reason");

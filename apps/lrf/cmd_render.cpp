@@ -2,6 +2,7 @@
 // camera-path video (spiral, orbit, interpolation through the training views).
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <memory>
 
 #include "command.h"
@@ -12,6 +13,7 @@
 #include "lrf/core/safetensors.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -75,24 +77,25 @@ int run_render_path(const RenderOptions& o) {
   return 0;
 }
 
-// Latent fields: the rendered latents (denormalised, safetensors, one tensor "latent" [C, h, w] per view)
-// and the decoded images, at the training latent resolution.
-int run_render_latent(const RenderOptions& o, const std::vector<int>& indices, const lrf::LatentRun& run,
-                      const std::string& dir) {
+// Latent fields and latent NeRFs: the rendered latents (denormalised, safetensors, one tensor "latent"
+// [C, h, w] per view) and the decoded images, at the training latent resolution. `render_view(i)` gives view
+// i's normalised latent.
+int run_render_latent(const RenderOptions& o, const std::vector<int>& indices, const lrf::Scene& scene,
+                      const lrf::LatentRange& range, lrf::Autoencoder& ae,
+                      const std::function<torch::Tensor(int)>& render_view, const std::string& dir) {
   using namespace lrf;
   if (o.scale != 1.0 || o.width > 0) fail("--scale/--width/--height apply to RGB fields; latent fields render at "
                                           "their latent resolution and decode at 8x");
-  auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder.empty() ? run.decoder : o.decoder);
   Progress progress("render", static_cast<long>(indices.size()));
   long done = 0;
   for (int i : indices) {
-    const auto& view = run.scene.views[static_cast<size_t>(i)];
-    auto zn = render_latent(run, i);
+    const auto& view = scene.views[static_cast<size_t>(i)];
+    auto zn = render_view(i);
     const std::string stem = (fs::path(dir) / fs::path(view.name).stem()).string();
     StateDict latent;
-    latent.insert("latent", run.range.denormalize(zn).contiguous());
+    latent.insert("latent", range.denormalize(zn).contiguous());
     write_safetensors(stem + ".safetensors", latent, {{"view", view.name}, {"space", "raw latent"}});
-    write_image_rgb(stem + ".png", tensor_to_image(decode_normalised(*ae, run.range, zn)));
+    write_image_rgb(stem + ".png", tensor_to_image(decode_normalised(ae, range, zn)));
     progress.update(++done);
   }
   progress.finish();
@@ -107,10 +110,15 @@ int run_render(const RenderOptions& o) {
   if (!o.path.empty()) return run_render_path(o);
   if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given)
     fail("--video, --frames-dir, --frames and --fps go with --path");
-  const bool latent = is_latent_run(o.out);
+  const bool nerf_field = nerf::is_nerf_run(o.out);
+  const bool latent = !nerf_field && is_latent_run(o.out);
   LatentRun lrun;
+  nerf::NerfRun nrun;
   FieldRun run;
-  if (latent) {
+  if (nerf_field) {
+    nrun = nerf::open_nerf_run(o.out);
+    run.scene = nrun.scene;
+  } else if (latent) {
     lrun = open_latent_run(o.out);
     run.scene = lrun.scene;
   } else {
@@ -125,7 +133,16 @@ int run_render(const RenderOptions& o) {
   if (indices.empty()) fail(o.out, "the '" + o.split + "' split has no views");
   const std::string dir = o.dir.empty() ? (fs::path(o.out) / "renders" / o.split).string() : o.dir;
   fs::create_directories(dir);
-  if (latent) return run_render_latent(o, indices, lrun, dir);
+  if (nerf_field) {
+    auto ae = load_autoencoder(nrun.autoencoder, nrun.encoder, o.decoder);
+    return run_render_latent(o, indices, nrun.scene, nrun.range, *ae,
+                             [&](int i) { return nerf::render_nerf_latent(nrun, i); }, dir);
+  }
+  if (latent) {
+    auto ae = load_autoencoder(lrun.autoencoder, lrun.encoder, o.decoder.empty() ? lrun.decoder : o.decoder);
+    return run_render_latent(o, indices, lrun.scene, lrun.range, *ae, [&](int i) { return render_latent(lrun, i); },
+                             dir);
+  }
   Progress progress("render", static_cast<long>(indices.size()));
   long done = 0;
   for (int i : indices) {
@@ -141,8 +158,9 @@ int run_render(const RenderOptions& o) {
 }
 
 lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
-  auto* cmd = root.add_subcommand("render", "Render a trained field (lrf train output): PNG images of the scene's views (latent fields also write the "
-                                   "rendered latents), or a camera-path video with --path");
+  auto* cmd = root.add_subcommand("render", "Render a trained field (lrf train output): PNG images of the scene's views (latent "
+                                   "fields and latent NeRFs also write the rendered latents), or a camera-path video with "
+                                   "--path");
   auto o = std::make_shared<RenderOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train")->required();
   auto* split = cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
@@ -150,7 +168,7 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training")->capture_default_str();
   cmd->add_option("--width", o->width, "Render width in pixels (with --height)")->excludes(scale);
   cmd->add_option("--height", o->height, "Render height in pixels (with --width)")->excludes(scale);
-  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's; default: the decoder "
+  cmd->add_option("--decoder", o->decoder, "Latent fields and latent NeRFs: decode with these decoder weights (e.g. Stage III's; default: the decoder "
                   "a refined field was fitted through, else the autoencoder's)");
   cmd->add_option("--path", o->path, "Render a camera path instead of the scene's views: spiral (LLFF's spiral around "
                   "the mean training pose, for forward-facing scenes), orbit (a turn around the SfM points' centre, for "

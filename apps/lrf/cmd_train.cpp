@@ -1,4 +1,5 @@
-// lrf train: fit a Gaussian field to a scene. `--space rgb` fits colours; Stage II adds `--space latent`.
+// lrf train: fit a Gaussian field to a scene. `--space rgb` fits colours; Stage II adds `--space latent`;
+// `--space latent-nerf` fits a NeRF to the same latents (the paper's Latent-NeRF* baseline).
 #include <filesystem>
 #include <memory>
 
@@ -10,6 +11,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/nerf/nerf_run.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/rgb/rgb_field.h"
@@ -23,6 +25,7 @@ struct TrainOptions {
   std::string out;
   lrf::SceneOptions scene_options;
   int64_t iters = 30000;
+  bool iters_set = false;
   int sh_degree = 3;
   bool sh_degree_set = false;
   bool mip = false;
@@ -40,6 +43,9 @@ struct TrainOptions {
   double rgb_guide = 0;
   std::string cache_dir;
   lrf::InitPointsOptions init_points;
+  // --space latent-nerf
+  int rays = 1024, samples = 32, hash_log2 = 17;
+  bool nerf_option_set = false;  // one of the three above was given
 };
 
 int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points) {
@@ -70,6 +76,48 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   if (o.rgb_guide != 0 && o.space != "latent") lrf::fail("--rgb-guide applies to latent fields");
   if (o.mip) lrf::fail("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
   lrf::train_latent_field(l);
+  return 0;
+}
+
+int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) {
+  if (o.mip || o.sh_degree_set || o.max_gaussians || o.sparse_adam || o.white_background || o.init != "latents")
+    lrf::fail("--mip, --sh-degree, --max-gaussians, --sparse-adam, --white-background and --init apply to Gaussian "
+              "fields, not to --space latent-nerf");
+  if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
+    lrf::fail("--test-list, --crop8 and --format are not available with --space latent-nerf (latent views are always "
+              "cropped to multiples of 8)");
+  lrf::nerf::LatentNerfOptions n;
+  n.scene = o.scene;
+  n.out = o.out;
+  n.images = o.scene_options.images_dir;
+  n.autoencoder = o.autoencoder;
+  n.encoder = o.encoder;
+  n.cache_dir = o.cache_dir;
+  n.downscale = o.scene_options.downscale;
+  n.test_every = o.scene_options.test_every;
+  n.train_views = o.scene_options.train_views;
+  n.iters = o.iters_set ? o.iters : lrf::nerf::kDefaultNerfIters;
+  n.checkpoint_every = o.checkpoint_every;
+  n.rays = o.rays;
+  n.samples = o.samples;
+  n.log2_table = o.hash_log2;
+  n.seed = o.seed;
+  n.force = o.force;
+  n.init_points = points;
+  lrf::nerf::train_latent_nerf(n);
+  return 0;
+}
+
+// --resume of a latent NeRF: its recorded options, except --iters, --checkpoint-every and --cache-dir when given.
+int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
+  if (given.nerf_option_set)
+    lrf::fail("--rays, --samples and --hash-log2 are fixed when a latent NeRF starts; --resume keeps the recorded ones");
+  auto n = lrf::nerf::recorded_nerf_options(given.out);
+  n.resume = true;
+  if (iters_given) n.iters = given.iters;
+  if (checkpoint_given) n.checkpoint_every = given.checkpoint_every;
+  if (!given.cache_dir.empty()) n.cache_dir = given.cache_dir;
+  lrf::nerf::train_latent_nerf(n);
   return 0;
 }
 
@@ -145,8 +193,10 @@ int run_train(const TrainOptions& o) {
   InitPointsOptions points = o.init_points;
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
   check_init_points_mode(points.mode);
+  if (o.space == "latent-nerf") return run_train_nerf(o, points);
+  if (o.nerf_option_set) fail("--rays, --samples and --hash-log2 apply to --space latent-nerf");
   if (o.space == "latent") return run_train_latent(o, points);
-  if (o.space != "rgb") fail("--space must be rgb or latent, got '" + o.space + "'");
+  if (o.space != "rgb") fail("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
   if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
@@ -214,9 +264,10 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   auto o = std::make_shared<TrainOptions>();
   cmd->add_option("scene", o->scene, "Scene folder (COLMAP, LLFF or NeRF transforms.json)")->required();
   cmd->add_option("--space", o->space,
-                  "Feature space of the field: rgb (colours) or latent (Stage II: the autoencoder's latents of the "
-                  "views, cropped to multiples of 8, fitted at 1/8 resolution)")
-      ->check(CLI::IsMember({"rgb", "latent"}))
+                  "Feature space of the field: rgb (colours), latent (Stage II: the autoencoder's latents of the "
+                  "views, cropped to multiples of 8, fitted at 1/8 resolution) or latent-nerf (a hash-grid NeRF "
+                  "fitted to the same latents by volume rendering: the paper's Latent-NeRF* baseline)")
+      ->check(CLI::IsMember({"rgb", "latent", "latent-nerf"}))
       ->capture_default_str();
   cmd->add_option("--autoencoder", o->autoencoder, "latent: autoencoder name (in $LRF_MODELS, ./models, "
                                                    "../shared/models) or path")
@@ -236,7 +287,22 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
   lrf::cli::add_scene_options(cmd, &o->scene_options);
   lrf::cli::add_init_points_options(cmd, &o->init_points);
-  auto* iters = cmd->add_option("--iters", o->iters, "Training steps")->capture_default_str();
+  auto* iters = cmd->add_option("--iters", o->iters,
+                                "Training steps (default 30000; " + std::to_string(lrf::nerf::kDefaultNerfIters) +
+                                    " for latent-nerf)")
+                    ->each([o](const std::string&) { o->iters_set = true; });
+  const auto nerf_option = [o](const std::string&) { o->nerf_option_set = true; };
+  cmd->add_option("--rays", o->rays, "latent-nerf: rays per training step (drawn from every training pixel)")
+      ->capture_default_str()
+      ->each(nerf_option);
+  cmd->add_option("--samples", o->samples,
+                  "latent-nerf: coarse samples per ray (stratified in disparity), and as many fine ones drawn from "
+                  "the coarse weights")
+      ->capture_default_str()
+      ->each(nerf_option);
+  cmd->add_option("--hash-log2", o->hash_log2, "latent-nerf: log2 of the hash table's entries per grid level")
+      ->capture_default_str()
+      ->each(nerf_option);
   cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3; default 3 for rgb, " +
                                                    std::to_string(lrf::kDefaultLatentShDegree) + " for latent)")
       ->each([o](const std::string&) { o->sh_degree_set = true; });
@@ -254,6 +320,7 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
   lrf::cli::on_run(cmd, [o, iters, checkpoint] {
     if (!o->resume) return run_train(*o);
+    if (lrf::nerf::is_nerf_run(o->out)) return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0);
     return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0));
   });
 });

@@ -21,6 +21,7 @@
 #include "lrf/eval/table.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/nerf/nerf_run.h"
 #include "lrf/refine/refine.h"
 #include "lrf/rgb/rgb_baseline.h"
 #include "lrf/splat/run/train_run.h"
@@ -101,14 +102,15 @@ ReportTable efficiency_table(const CompareOptions& o, const nlohmann::json& all,
 }  // namespace
 
 const std::vector<std::string>& compare_methods() {
-  static const std::vector<std::string> m = {"rgb", "rgb-mip", "rgb/8", "rgb/8-mip", "latent", "latent-refined"};
+  static const std::vector<std::string> m = {"rgb",    "rgb-mip",        "rgb/8",      "rgb/8-mip",
+                                             "latent", "latent-refined", "latent-nerf"};
   return m;
 }
 
 nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& m : o.methods) {
     if (std::find(compare_methods().begin(), compare_methods().end(), m) == compare_methods().end())
-      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined)");
+      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined, latent-nerf)");
   }
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
@@ -122,8 +124,20 @@ nlohmann::json run_compare(const CompareOptions& o) {
   so.train_views = o.train_views;
   so.crop_to_multiple_of_8 = true;
   Scene scene = load_scene(o.scene, so);
-  auto resumable = [&](const std::string& dir) {
-    return !o.force && fs::exists(splat::checkpoint_path(dir)) && !splat::run_finished(dir);
+  // A latent NeRF keeps its own files (nerf/nerf_run.h); every other method is a Gaussian field.
+  const int64_t nerf_iters = o.nerf_iters > 0 ? o.nerf_iters : nerf::kDefaultNerfIters;
+  auto finished = [&](const std::string& method, const std::string& dir) {
+    if (method != "latent-nerf") return splat::run_finished(dir);
+    if (!nerf::nerf_run_finished(dir)) return false;
+    const int64_t steps = nerf::recorded_nerf_options(dir).iters;
+    if (steps != nerf_iters && !o.force)
+      fail(dir, "this latent NeRF was trained for " + std::to_string(steps) + " steps, not --nerf-iters " +
+                    std::to_string(nerf_iters) + ": use another output folder, or --force");
+    return true;
+  };
+  auto resumable = [&](const std::string& method, const std::string& dir) {
+    const std::string checkpoint = method == "latent-nerf" ? nerf::nerf_checkpoint_path(dir) : splat::checkpoint_path(dir);
+    return !o.force && fs::exists(checkpoint) && !finished(method, dir);
   };
   // The latent field: the latent row, and what latent-refined starts from.
   const std::string latent_dir = (fs::path(o.out) / "latent").string();
@@ -131,7 +145,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
   auto ensure_latent_field = [&] {
     if (!o.force && splat::run_finished(latent_dir)) return;
     if (latent_fresh) return;
-    const bool resume = resumable(latent_dir);
+    const bool resume = resumable("latent", latent_dir);
     log_info(std::string("== latent field") + (resume ? " (resuming)" : ""));
     LatentTrainOptions l;
     l.scene = o.scene;
@@ -157,12 +171,12 @@ nlohmann::json run_compare(const CompareOptions& o) {
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
-    if (!o.force && fs::exists(metrics_path) && splat::run_finished(dir)) {
+    if (!o.force && fs::exists(metrics_path) && finished(method, dir)) {
       log_info(method + ": reusing " + metrics_path + " (pass --force to recompute)");
       all[method] = read_json_file(metrics_path);
       continue;
     }
-    const bool resume = resumable(dir);
+    const bool resume = resumable(method, dir);
     log_info("== " + method + (resume ? " (resuming)" : ""));
     if (method == "latent") {
       ensure_latent_field();
@@ -186,6 +200,29 @@ nlohmann::json run_compare(const CompareOptions& o) {
       LatentEvalOptions le;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
+    } else if (method == "latent-nerf") {
+      if (o.force || !finished(method, dir)) {
+        nerf::LatentNerfOptions n;
+        n.scene = o.scene;
+        n.out = dir;
+        n.images = o.images;
+        n.downscale = o.downscale;
+        n.test_every = o.test_every;
+        n.train_views = o.train_views;
+        n.autoencoder = o.autoencoder;
+        n.encoder = o.encoder;
+        n.cache_dir = o.cache_dir;
+        n.init_points = o.init_points;
+        n.iters = nerf_iters;
+        n.seed = o.seed;
+        n.resume = resume;
+        n.force = !resume;
+        nerf::train_latent_nerf(n);
+      }
+      LatentEvalOptions le;
+      le.decoder = o.decoder;
+      le.lpips_weights = o.lpips_weights;
+      all[method] = nerf::evaluate_nerf_run(dir, le);
     } else {
       if (o.force || !splat::run_finished(dir)) {
         RgbBaselineOptions b;
@@ -248,6 +285,10 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        "filters) on the full-resolution views. latent-refined: "
                        "the latent field refined through the decoder against the training images (lrf refine: " +
                        refine_description(o.refine) + ").");
+  if (std::find(o.methods.begin(), o.methods.end(), "latent-nerf") != o.methods.end())
+    spec.notes.push_back("latent-nerf: a hash-grid NeRF (Instant-NGP's architecture) fitted by volume rendering to the "
+                         "same normalised latents as the latent field, decoded the same way (the paper's "
+                         "Latent-NeRF*); " + std::to_string(nerf_iters) + " steps.");
   if (!all.empty() && all.begin()->value("lpips", nlohmann::json()).is_null())
     spec.notes.push_back("LPIPS not computed: pass --lpips-weights with the lpips v0.1 VGG weights.");
   spec.max_image_side = 640;

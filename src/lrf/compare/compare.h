@@ -2,8 +2,8 @@
 // The paper's Table 1 on one scene: image-space baselines at latent resolution (3DGS/8 and
 // Mip-Splatting/8: RGB fields trained on the views downscaled 8x and rendered at full resolution), the
 // full-resolution RGB field, the latent field with the stock autoencoder (3DGS-VAE) and that field refined
-// through the decoder (lrf refine), all scored on the same test views at the same resolution; a CSV /
-// markdown table and a self-contained HTML report.
+// through the decoder (lrf refine), a NeRF fitted to the same latents (Latent-NeRF*), all scored on the
+// same test views at the same resolution; a CSV / markdown table and a self-contained HTML report.
 #include <string>
 #include <vector>
 
@@ -20,6 +20,7 @@ struct CompareOptions {
   int downscale = 1, test_every = 8, latent_sh_degree = 0;
   int train_views = 0;  // few-shot: K evenly spaced training views for every method (0 = all)
   int64_t iters = 7000, latent_iters = 0;  // latent_iters 0 = iters
+  int64_t nerf_iters = 0;  // latent-nerf steps (0 = nerf::kDefaultNerfIters; --iters counts Gaussian steps)
   uint64_t seed = 0;
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
   InitPointsOptions init_points;  // every method starts from the same points
@@ -27,7 +28,8 @@ struct CompareOptions {
   bool force = false;
 };
 
-// Every method compare knows: rgb and rgb-mip (full resolution), rgb/8, rgb/8-mip, latent, latent-refined.
+// Every method compare knows: rgb and rgb-mip (full resolution), rgb/8, rgb/8-mip, latent, latent-refined,
+// latent-nerf.
 const std::vector<std::string>& compare_methods();
 
 // Runs (or reuses) every method and writes OUT/table.csv, OUT/table.md and OUT/report.html.

@@ -27,7 +27,8 @@ std::string config_space(const nlohmann::json& c, const std::string& path) {
   if (!c.contains("space")) return "rgb";
   if (!c["space"].is_string()) fail(path, "\"space\" is not a string");
   std::string space = c["space"].get<std::string>();
-  if (space != "rgb" && space != "latent") fail(path, "unknown space '" + space + "' (rgb or latent)");
+  if (space != "rgb" && space != "latent" && space != "latent-nerf")
+    fail(path, "unknown space '" + space + "' (rgb, latent or latent-nerf)");
   return space;
 }
 
@@ -51,6 +52,7 @@ SceneOptions scene_options_from_config(const nlohmann::json& c, const std::strin
 FieldConfig parse_field_config(const nlohmann::json& c, const std::string& path) {
   FieldConfig f;
   f.space = config_space(c, path);
+  if (f.space == "latent-nerf") fail(path, "a latent NeRF (lrf train --space latent-nerf), not a Gaussian field");
   try {
     f.scene_root = c.at("scene").get<std::string>();
     f.sh_degree = bounded_int(c, "sh_degree", path, 0, 3);

@@ -20,10 +20,10 @@ struct FieldConfig {
   std::vector<float> background;  // one value per channel
 };
 
-// "rgb" (also when absent, as in runs older than Stage II) or "latent".
+// "rgb" (also when absent, as in runs older than Stage II), "latent" or "latent-nerf" (nerf/nerf_run.h).
 std::string config_space(const nlohmann::json& config, const std::string& config_path);
 SceneOptions scene_options_from_config(const nlohmann::json& config, const std::string& config_path);
-// The render settings and scene of any field's config.json (RGB or latent).
+// The render settings and scene of any Gaussian field's config.json (RGB or latent; a latent NeRF is refused).
 FieldConfig parse_field_config(const nlohmann::json& config, const std::string& config_path);
 
 }  // namespace lrf::splat

@@ -1,0 +1,76 @@
+#include "lrf/latent/latent_scoring.h"
+
+#include <chrono>
+#include <filesystem>
+
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/cache_key.h"
+#include "lrf/core/error.h"
+#include "lrf/core/image_io.h"
+#include "lrf/core/progress.h"
+#include "lrf/eval/metrics.h"
+#include "lrf/eval/scores.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_field.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+
+nlohmann::json score_latent_test_views(const LatentScoring& in) {
+  const Scene& scene = *in.scene;
+  if (scene.test_indices.empty()) fail(scene.root, "the scene has no test views");
+  auto encoded = encode_views_cached(scene, scene.test_indices, *in.autoencoder, in.autoencoder_identity,
+                                     default_cache_dir());
+  if (!in.image_dir.empty()) fs::create_directories(in.image_dir);
+  torch::NoGradGuard no_grad;
+  std::vector<ImageScores> scores;
+  nlohmann::json views = nlohmann::json::array();
+  double roundtrip_sum = 0, latent_psnr_sum = 0, render_seconds = 0, decode_seconds = 0;
+  Progress progress("eval", static_cast<long>(scene.test_indices.size()));
+  for (size_t k = 0; k < scene.test_indices.size(); ++k) {
+    const int i = scene.test_indices[k];
+    const View& v = scene.views[static_cast<size_t>(i)];
+    auto t0 = std::chrono::steady_clock::now();
+    auto zn = in.render(i);
+    auto t1 = std::chrono::steady_clock::now();
+    auto image = decode_normalised(*in.autoencoder, *in.range, zn);
+    auto t2 = std::chrono::steady_clock::now();
+    render_seconds += std::chrono::duration<double>(t1 - t0).count();
+    decode_seconds += std::chrono::duration<double>(t2 - t1).count();
+    cv::Mat truth = scene.load_image(i);
+    cv::Mat decoded = tensor_to_image(image);
+    ImageScores s = score_image(truth, decoded, in.lpips, v.name);
+    scores.push_back(s);
+    auto roundtrip = in.autoencoder->decode(encoded.latents[k].unsqueeze(0)).squeeze(0);
+    const double rt = psnr(roundtrip, image_to_chw(truth));
+    const double lp = psnr(zn.clamp(0, 1), in.range->normalize(encoded.latents[k]).clamp(0, 1));
+    roundtrip_sum += rt;
+    latent_psnr_sum += lp;
+    auto j = scores_json(s);
+    j["name"] = v.name;
+    j["roundtrip_psnr"] = rt;
+    j["latent_psnr"] = lp;
+    views.push_back(j);
+    if (!in.image_dir.empty())
+      write_image_rgb((fs::path(in.image_dir) / (fs::path(v.name).stem().string() + ".png")).string(), decoded);
+    progress.update(static_cast<long>(k + 1), {{"psnr", s.psnr}});
+  }
+  const double n = double(scores.size());
+  const ImageScores mean = mean_scores(scores);
+  nlohmann::json metrics = scores_json(mean);
+  metrics["views"] = views;
+  metrics["roundtrip_psnr"] = roundtrip_sum / n;
+  metrics["latent_psnr"] = latent_psnr_sum / n;
+  const Camera& c0 = scene.views[0].camera;
+  metrics["resolution"] = {c0.width, c0.height};
+  metrics["latent_resolution"] = {c0.width / 8, c0.height / 8};
+  metrics["render_fps"] = n / std::max(render_seconds, 1e-9);
+  metrics["decode_fps"] = n / std::max(decode_seconds, 1e-9);
+  progress.finish({{"psnr", mean.psnr}, {"ssim", mean.ssim}});
+  return metrics;
+}
+
+}  // namespace lrf

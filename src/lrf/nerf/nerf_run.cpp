@@ -1,0 +1,118 @@
+// Reopening a latent NeRF run: rendering its views and scoring the decoded test views (see nerf_run.h).
+#include "lrf/nerf/nerf_run.h"
+
+#include <filesystem>
+#include <optional>
+
+#include <torch/torch.h>
+
+#include "lrf/core/cache_key.h"
+#include "lrf/core/error.h"
+#include "lrf/core/run_info.h"
+#include "lrf/core/state_dict.h"
+#include "lrf/eval/lpips.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_scoring.h"
+#include "lrf/nerf/nerf_render.h"
+#include "lrf/splat/run/run_config.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf::nerf {
+
+bool is_nerf_run(const std::string& out) {
+  const fs::path config = fs::path(out) / "config.json";
+  if (!fs::exists(config)) return false;
+  const nlohmann::json c = read_json_file(config.string());
+  return c.is_object() && c.contains("space") && c["space"] == "latent-nerf";
+}
+
+bool nerf_run_finished(const std::string& out) {
+  const fs::path config = fs::path(out) / "config.json";
+  if (!fs::exists(config) || !fs::exists(nerf_field_path(out))) return false;
+  return read_json_file(config.string()).contains("result");
+}
+
+NerfRun open_nerf_run(const std::string& out) {
+  NerfRun run;
+  run.out = out;
+  const std::string config_path = (fs::path(out) / "config.json").string();
+  if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
+  run.config = read_json_file(config_path);
+  if (!run.config.is_object() || run.config.value("space", std::string()) != "latent-nerf")
+    fail(config_path, "not a latent NeRF run (lrf train --space latent-nerf)");
+  std::string scene_root, identity;
+  std::vector<int> resolution;
+  try {
+    scene_root = run.config.at("scene").get<std::string>();
+    run.autoencoder = run.config.at("autoencoder").get<std::string>();
+    run.encoder = run.config.value("encoder", std::string());
+    identity = run.config.at("autoencoder_identity").get<std::string>();
+    run.range = LatentRange::from_json(run.config.at("latent_range"), config_path);
+    resolution = run.config.at("resolution").get<std::vector<int>>();
+  } catch (const nlohmann::json::exception& e) {
+    fail(config_path, std::string("missing or bad latent NeRF settings: ") + e.what());
+  }
+  const std::string now = autoencoder_identity(run.autoencoder, run.encoder);
+  if (now != identity)
+    fail(config_path, "the autoencoder's files changed since training (was " + identity + ", now " + now +
+                          "): retrain, or restore the weights");
+  run.scene = load_scene(scene_root, splat::scene_options_from_config(run.config, config_path));
+  if (run.scene.views.empty()) fail(config_path, "the scene has no views");
+  const Camera& c0 = run.scene.views[0].camera;
+  if (resolution.size() != 2 || resolution[0] != c0.width || resolution[1] != c0.height)
+    fail(config_path, "the scene's images changed resolution since training");
+  const std::string field = nerf_field_path(out);
+  if (!fs::exists(field)) fail(field, "not found: the run has not reached its first checkpoint (resume it with lrf train --resume)");
+  run.field = NerfField::load(field);
+  if (run.field.spec.channels != run.range.channels())
+    fail(field, "the field renders " + std::to_string(run.field.spec.channels) + " channels, the run's latent range has " +
+                    std::to_string(run.range.channels()));
+  return run;
+}
+
+torch::Tensor render_nerf_latent(const NerfRun& run, int view) {
+  return render_view(run.field, latent_camera(run.scene.views.at(static_cast<size_t>(view)).camera));
+}
+
+nlohmann::json evaluate_nerf_run(const std::string& out, const LatentEvalOptions& o) {
+  const NerfRun run = open_nerf_run(out);
+  if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
+  auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder);
+  std::optional<Lpips> lpips;
+  if (!o.lpips_weights.empty())
+    lpips = Lpips::from_state_dict(tensor_map(load_state_dict(o.lpips_weights)), o.lpips_weights);
+  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
+  fs::create_directories(result_dir);
+
+  LatentScoring scoring;
+  scoring.scene = &run.scene;
+  scoring.range = &run.range;
+  scoring.autoencoder = ae.get();
+  scoring.autoencoder_identity = autoencoder_identity(run.autoencoder, run.encoder);
+  scoring.lpips = lpips ? &*lpips : nullptr;
+  scoring.image_dir = o.write_images ? (fs::path(result_dir) / "eval").string() : "";
+  scoring.render = [&](int view) { return render_nerf_latent(run, view); };
+  nlohmann::json metrics = score_latent_test_views(scoring);
+  if (!lpips) metrics["lpips_reason"] = "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
+  metrics["decoder"] = o.decoder.empty() ? "stock" : o.decoder;
+  metrics["parameters"] = run.field.parameter_count();
+  if (run.config.contains("result") && run.config["result"].is_object()) {
+    const auto& result = run.config["result"];
+    auto number = [&](const char* key) {
+      return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
+    };
+    metrics["train_seconds"] = number("seconds");
+    metrics["peak_memory_mb"] = number("peak_memory_mb");
+  }
+  const std::string field_file = nerf_field_path(out);
+  std::error_code ec;
+  metrics["storage_mb"] = double(fs::file_size(field_file, ec)) / (1 << 20);
+  metrics["field_stamp"] = file_stamp(field_file);
+  metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
+  write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
+  return metrics;
+}
+
+}  // namespace lrf::nerf

@@ -1,0 +1,172 @@
+#include "lrf/nerf/nerf_trainer.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <ATen/ATen.h>
+#include <ATen/CPUGeneratorImpl.h>
+#include <ATen/Parallel.h>
+
+#include "lrf/core/error.h"
+#include "lrf/core/safetensors.h"
+#include "lrf/nerf/ray_sampling.h"
+
+namespace lrf::nerf {
+namespace {
+
+constexpr double kBeta1 = 0.9, kBeta2 = 0.99, kEpsilon = 1e-15;
+
+// splitmix64: a step's seed from the run's seed and the step number.
+uint64_t step_seed(uint64_t seed, int64_t step) {
+  uint64_t z = seed + 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(step + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+// One Adam update of a tensor; with `lazy`, entries whose gradient is exactly 0 keep value and moments.
+void adam_update(at::Tensor& param, const at::Tensor& grad, at::Tensor& m, at::Tensor& v, double lr, int64_t t,
+                 bool lazy) {
+  float* p = param.data_ptr<float>();
+  const float* g = grad.data_ptr<float>();
+  float* mp = m.data_ptr<float>();
+  float* vp = v.data_ptr<float>();
+  const double c1 = 1.0 - std::pow(kBeta1, double(t)), c2 = 1.0 - std::pow(kBeta2, double(t));
+  const float step_size = static_cast<float>(lr / c1);
+  const float inv_c2 = static_cast<float>(1.0 / c2);
+  const float b1 = float(kBeta1), b2 = float(kBeta2), eps = float(kEpsilon);
+  at::parallel_for(0, param.numel(), 1 << 14, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      if (lazy && g[i] == 0.0f) continue;
+      mp[i] = b1 * mp[i] + (1.0f - b1) * g[i];
+      vp[i] = b2 * vp[i] + (1.0f - b2) * g[i] * g[i];
+      p[i] -= step_size * mp[i] / (std::sqrt(vp[i] * inv_c2) + eps);
+    }
+  });
+}
+
+}  // namespace
+
+void NerfTrainOptions::check() const {
+  if (iterations < 1) fail("--iters must be at least 1");
+  if (rays_per_step < 1 || rays_per_step > (1 << 20)) fail("--rays must be between 1 and 1048576");
+  if (!(lr > 0) || !(lr_final > 0) || !std::isfinite(lr) || !std::isfinite(lr_final))
+    fail("NeRF learning rates must be positive");
+}
+
+NerfTrainingRays training_rays(const std::vector<Camera>& cameras, const std::vector<at::Tensor>& latents) {
+  if (cameras.size() != latents.size() || cameras.empty()) fail("NeRF training: one latent per training camera expected");
+  NerfTrainingRays out;
+  std::vector<at::Tensor> targets;
+  for (size_t k = 0; k < cameras.size(); ++k) {
+    const Camera& cam = cameras[k];
+    const at::Tensor& z = latents[k];
+    if (z.dim() != 3 || z.size(1) != cam.height || z.size(2) != cam.width)
+      fail("NeRF training: latent " + std::to_string(k) + " does not match its camera's " + std::to_string(cam.width) +
+           "x" + std::to_string(cam.height) + " pixels");
+    std::vector<double> o, d;
+    camera_rays(cam, &o, &d);
+    out.origins.insert(out.origins.end(), o.begin(), o.end());
+    out.directions.insert(out.directions.end(), d.begin(), d.end());
+    targets.push_back(z.to(at::kFloat).permute({1, 2, 0}).reshape({-1, z.size(0)}));  // row-major pixels, as camera_rays
+  }
+  out.targets = at::cat(targets, 0).contiguous();
+  return out;
+}
+
+NerfTrainer::NerfTrainer(NerfField field, NerfTrainingRays rays, const NerfTrainOptions& options)
+    : field_(std::move(field)), rays_(std::move(rays)), options_(options) {
+  options_.check();
+  if (rays_.count() == 0) fail("NeRF training: no training rays");
+  if (rays_.targets.size(1) != field_.spec.channels)
+    fail("NeRF training: the targets have " + std::to_string(rays_.targets.size(1)) + " channels, the field " +
+         std::to_string(field_.spec.channels));
+  m_ = field_.zeros_like();
+  v_ = field_.zeros_like();
+}
+
+double NerfTrainer::learning_rate(int64_t step) const {
+  const double t = options_.iterations > 1 ? double(step) / double(options_.iterations - 1) : 0.0;
+  return options_.lr * std::pow(options_.lr_final / options_.lr, std::min(1.0, t));
+}
+
+NerfStepResult NerfTrainer::step() {
+  using Clock = std::chrono::steady_clock;
+  NerfStepResult r;
+  auto generator = at::make_generator<at::CPUGeneratorImpl>(step_seed(options_.seed, step_));
+  auto t0 = Clock::now();
+  const int64_t R = options_.rays_per_step;
+  const at::Tensor index = at::randint(rays_.count(), {R}, generator, at::kLong);
+  std::vector<double> origins(static_cast<size_t>(3 * R)), directions(static_cast<size_t>(3 * R));
+  const int64_t* ip = index.data_ptr<int64_t>();
+  for (int64_t k = 0; k < R; ++k)
+    for (int a = 0; a < 3; ++a) {
+      origins[static_cast<size_t>(3 * k + a)] = rays_.origins[static_cast<size_t>(3 * ip[k] + a)];
+      directions[static_cast<size_t>(3 * k + a)] = rays_.directions[static_cast<size_t>(3 * ip[k] + a)];
+    }
+  const at::Tensor targets = rays_.targets.index_select(0, index);
+  const Rays batch{origins.data(), directions.data(), R};
+  const at::Tensor s = place_samples(field_, batch, generator);
+  r.timings.sampling = std::chrono::duration<double>(Clock::now() - t0).count();
+
+  NerfField grads = field_.zeros_like();
+  r.loss = loss_and_gradients(field_, batch, s, targets, &grads, &r.timings);
+  if (!std::isfinite(r.loss)) fail("NeRF training diverged at step " + std::to_string(step_ + 1) + " (loss not finite)");
+  r.psnr = -10.0 * std::log10(std::max(r.loss, 1e-20));
+  auto t1 = Clock::now();
+  adam_step(grads);
+  r.optimizer_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
+  r.step = ++step_;
+  return r;
+}
+
+void NerfTrainer::adam_step(const NerfField& grads) {
+  const double lr = learning_rate(step_);
+  const int64_t t = step_ + 1;
+  auto params = field_.named_tensors(), g = grads.named_tensors(), m = m_.named_tensors(), v = v_.named_tensors();
+  for (size_t k = 0; k < params.size(); ++k)
+    adam_update(params[k].second, g[k].second, m[k].second, v[k].second, lr, t, params[k].first == "grid.table");
+}
+
+void NerfTrainer::save_checkpoint(const std::string& path) const {
+  StateDict tensors;
+  for (const auto& [name, t] : field_.named_tensors()) tensors.insert("field." + name, t);
+  for (const auto& [name, t] : m_.named_tensors()) tensors.insert("adam_m." + name, t);
+  for (const auto& [name, t] : v_.named_tensors()) tensors.insert("adam_v." + name, t);
+  tensors.insert("step", at::full({1}, step_, at::kLong));
+  write_safetensors(path, tensors, {{"format", "lrf latent-nerf checkpoint"}, {"spec", field_.spec.to_json().dump()}});
+}
+
+void NerfTrainer::load_checkpoint(const std::string& path) {
+  const auto meta = read_safetensors_metadata(path);
+  if (!meta.count("spec")) fail(path, "not a latent-nerf checkpoint (no \"spec\" in its metadata)");
+  nlohmann::json spec;
+  try {
+    spec = nlohmann::json::parse(meta.at("spec"));
+  } catch (const nlohmann::json::exception& e) {
+    fail(path, std::string("the NeRF spec in the metadata is not JSON: ") + e.what());
+  }
+  if (spec != field_.spec.to_json())
+    fail(path, "the checkpoint's field was made with other settings (grid, sizes, samples or scene bounds)");
+  const StateDict stored = read_safetensors(path);
+  auto restore = [&](const std::string& prefix, NerfField& into) {
+    for (auto& [name, t] : into.named_tensors()) {
+      const at::Tensor* s = stored.find(prefix + name);
+      if (!s || s->scalar_type() != at::kFloat || s->sizes() != t.sizes())
+        fail(path, "missing or misshapen tensor \"" + prefix + name + "\"");
+      t.copy_(*s);
+    }
+  };
+  const at::Tensor* step = stored.find("step");
+  if (!step || step->scalar_type() != at::kLong || step->numel() != 1) fail(path, "missing step count");
+  const int64_t steps = step->item<int64_t>();
+  if (steps < 0 || steps > options_.iterations)
+    fail(path, "holds step " + std::to_string(steps) + ", beyond the run's " + std::to_string(options_.iterations) +
+                   " steps (resume with a larger --iters)");
+  restore("field.", field_);
+  restore("adam_m.", m_);
+  restore("adam_v.", v_);
+  step_ = steps;
+}
+
+}  // namespace lrf::nerf
