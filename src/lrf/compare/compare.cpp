@@ -64,6 +64,18 @@ void require_same_settings(const std::string& summary_path, const nlohmann::json
   }
 }
 
+// A finished or interrupted feature-gs field is reused or resumed only with the feature count asked for now.
+void require_same_feature_dim(const std::string& dir, int wanted) {
+  const std::string config = (fs::path(dir) / "config.json").string();
+  if (!fs::exists(config)) return;
+  const nlohmann::json options = read_json_file(config).value("options", nlohmann::json::object());
+  const nlohmann::json recorded = options.value("feature_dim", nlohmann::json());
+  if (recorded != wanted) {
+    fail(config, "feature-gs was trained here with feature_dim " + recorded.dump() + ", this run asks for " +
+                     std::to_string(wanted) + " (-1: half the latent channels); use another output folder, or --force");
+  }
+}
+
 // What a method's field is fitted to: the paper's efficiency table compares methods by the size of what
 // they optimise against as well as by time and memory.
 std::string fitted_to(const std::string& method, const std::string& dir, const Camera& camera) {
@@ -77,7 +89,13 @@ std::string fitted_to(const std::string& method, const std::string& dir, const C
     const nlohmann::json c = read_json_file(config.string());
     if (c.contains("background") && c["background"].is_array()) channels = std::to_string(c["background"].size());
   }
-  const std::string latents = eighth + "x" + channels + " latents";
+  std::string latents = eighth + "x" + channels + " latents";
+  if (method == "feature-gs" && fs::exists(config)) {
+    // The field renders fewer channels than the latent has: name both.
+    const nlohmann::json c = read_json_file(config.string());
+    latents = eighth + "x" + c.value("latent_channels", nlohmann::json()).dump() + " latents, from " +
+              c.value("feature_dim", nlohmann::json()).dump() + " features by a 1x1 convolution";
+  }
   return method == "latent-refined" ? latents + ", then " + full + " RGB through the decoder" : latents;
 }
 
@@ -101,14 +119,15 @@ ReportTable efficiency_table(const CompareOptions& o, const nlohmann::json& all,
 }  // namespace
 
 const std::vector<std::string>& compare_methods() {
-  static const std::vector<std::string> m = {"rgb", "rgb-mip", "rgb/8", "rgb/8-mip", "latent", "latent-refined"};
+  static const std::vector<std::string> m = {"rgb",    "rgb-mip",        "rgb/8",     "rgb/8-mip",
+                                             "latent", "latent-refined", "feature-gs"};
   return m;
 }
 
 nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& m : o.methods) {
     if (std::find(compare_methods().begin(), compare_methods().end(), m) == compare_methods().end())
-      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined)");
+      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined, feature-gs)");
   }
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
@@ -156,6 +175,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& method : o.methods) {
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
+    const int feature_dim = o.feature_dim > 0 ? o.feature_dim : kHalfLatentChannels;
+    if (method == "feature-gs" && !o.force) require_same_feature_dim(dir, feature_dim);
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
     if (!o.force && fs::exists(metrics_path) && splat::run_finished(dir)) {
       log_info(method + ": reusing " + metrics_path + " (pass --force to recompute)");
@@ -184,6 +205,32 @@ nlohmann::json run_compare(const CompareOptions& o) {
         refine_latent_field(r);
       }
       LatentEvalOptions le;
+      le.lpips_weights = o.lpips_weights;
+      all[method] = evaluate_latent_run(dir, le);
+    } else if (method == "feature-gs") {
+      if (o.force || !splat::run_finished(dir)) {
+        // The latent field's training, with a feature field in place of latent features.
+        LatentTrainOptions l;
+        l.scene = o.scene;
+        l.out = dir;
+        l.images = o.images;
+        l.downscale = o.downscale;
+        l.test_every = o.test_every;
+        l.train_views = o.train_views;
+        l.autoencoder = o.autoencoder;
+        l.encoder = o.encoder;
+        l.cache_dir = o.cache_dir;
+        l.sh_degree = o.latent_sh_degree;
+        l.init_points = o.init_points;
+        l.iters = o.latent_iters > 0 ? o.latent_iters : o.iters;
+        l.seed = o.seed;
+        l.feature_dim = feature_dim;
+        l.resume = resume;
+        l.force = !resume;
+        train_latent_field(l);
+      }
+      LatentEvalOptions le;
+      le.decoder = o.decoder;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
     } else {
@@ -247,7 +294,12 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        " iterations. rgb, rgb-mip: RGB 3D Gaussian splatting (rgb-mip with Mip-Splatting's "
                        "filters) on the full-resolution views. latent-refined: "
                        "the latent field refined through the decoder against the training images (lrf refine: " +
-                       refine_description(o.refine) + ").");
+                       refine_description(o.refine) + "). feature-gs: the Feature-GS baseline (Feature 3DGS's "
+                       "speed-up module): Gaussians carrying " +
+                       (o.feature_dim > 0 ? std::to_string(o.feature_dim) + " features"
+                                          : std::string("half as many features as the latent has channels")) +
+                       ", rendered at latent resolution, lifted to the latent by a 1x1 convolution trained with them "
+                       "on the latent field's targets and loss, decoded.");
   if (!all.empty() && all.begin()->value("lpips", nlohmann::json()).is_null())
     spec.notes.push_back("LPIPS not computed: pass --lpips-weights with the lpips v0.1 VGG weights.");
   spec.max_image_side = 640;
