@@ -70,10 +70,15 @@ void require_same_feature_dim(const std::string& dir, int wanted) {
   if (!fs::exists(config)) return;
   const nlohmann::json options = read_json_file(config).value("options", nlohmann::json::object());
   const nlohmann::json recorded = options.value("feature_dim", nlohmann::json());
-  if (recorded != wanted) {
-    fail(config, "feature-gs was trained here with feature_dim " + recorded.dump() + ", this run asks for " +
-                     std::to_string(wanted) + " (-1: half the latent channels); use another output folder, or --force");
-  }
+  if (recorded == wanted) return;
+  // kHalfLatentChannels is how both the option and the record say "the default".
+  auto describe = [](const nlohmann::json& d) {
+    if (!d.is_number_integer()) return std::string("an unknown feature count");
+    return d.get<int>() == kHalfLatentChannels ? std::string("the default feature count (half the latent channels)")
+                                               : std::to_string(d.get<int>()) + " features";
+  };
+  fail(config, "feature-gs was trained here with " + describe(recorded) + ", this run asks for " +
+                   describe(wanted) + "; use another output folder, or --force");
 }
 
 // What a method's field is fitted to: the paper's efficiency table compares methods by the size of what
