@@ -1,6 +1,8 @@
 // lrf pipeline on tiny synthetic scenes: every artefact and table is written, evaluation scenes feed no
 // training stage (asserted from the stages' own records), and a re-run reuses everything.
+#include <algorithm>
 #include <filesystem>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -125,6 +127,48 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   other.refine.lr_final = 0.5;
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("the refined field in this folder was made with other settings"), std::string::npos) << msg;
+}
+
+// --shard i/n: two shards split the per-scene steps between them (each field fitted by one of them), leave
+// what needs Stage I to the unsharded command, which reuses every field they fitted and writes the tables.
+TEST(Pipeline, ShardsSplitThePerSceneStepsAndThePlainCommandFinishes) {
+  lrf::test::TempDir dir("pipeline_shards");
+  lrf::PipelineOptions o = tiny_pipeline(dir / "run");
+  std::vector<std::string> done;
+  for (const char* shard : {"0/2", "1/2"}) {
+    lrf::PipelineOptions s = o;
+    lrf::parse_shard(shard, &s);
+    nlohmann::json r = lrf::run_pipeline(s);
+    for (const auto& unit : r["done"]) done.push_back(unit.get<std::string>());
+    // Stage I is never a shard's: the units that need it are left.
+    EXPECT_FALSE(r["left"].empty()) << shard;
+  }
+  std::sort(done.begin(), done.end());
+  EXPECT_EQ(std::adjacent_find(done.begin(), done.end()), done.end()) << "a unit ran in both shards";
+  EXPECT_FALSE(fs::exists(dir / "run/stage1"));
+  EXPECT_FALSE(fs::exists(dir / "run/ablation.csv"));
+  const std::string train = fs::path(o.train_scenes[0]).filename().string();
+  const std::string eval = fs::path(o.eval_scenes[0]).filename().string();
+  const std::vector<std::string> by_shards = {train + "-stock", eval + "-stock", eval + "-stock-refined",
+                                              eval + "-rgb8", eval + "-rgb8mip", eval + "-rgb", eval + "-rgbmip"};
+  std::map<std::string, fs::file_time_type> fitted;
+  for (const auto& f : by_shards) {
+    const std::string ply = dir / ("run/fields/" + f + "/point_cloud.ply");
+    ASSERT_TRUE(fs::exists(ply)) << f;
+    fitted[f] = fs::last_write_time(ply);
+  }
+  EXPECT_FALSE(fs::exists(dir / ("run/fields/" + train + "-ft")));
+
+  lrf::run_pipeline(o);
+  for (const auto& [f, time] : fitted) {
+    EXPECT_EQ(fs::last_write_time(dir / ("run/fields/" + f + "/point_cloud.ply")), time) << f << " was fitted again";
+  }
+  const std::string csv = lrf::read_file(dir / "run/ablation.csv");
+  for (const auto& row : lrf::ablation_rows()) EXPECT_NE(csv.find("," + row + ","), std::string::npos) << row;
+
+  for (const char* bad : {"2/2", "1", "a/2", "-1/2", "0/0", "1/2x"}) {
+    EXPECT_NE(error_of([&] { lrf::parse_shard(bad, &o); }).find("--shard"), std::string::npos) << bad;
+  }
 }
 
 TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {

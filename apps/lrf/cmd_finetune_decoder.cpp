@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "distributed_flags.h"
 #include "lrf/finetune/decoder_finetune.h"
 
 namespace {
@@ -13,7 +14,8 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
       "Stage III: fine-tune an autoencoder's decoder on latents rendered by fitted latent fields (their training and "
       "held-out views) against the real images: weight-train x L1_train + weight-novel x L1_novel, encoder untouched. "
       "Writes the decoder as .safetensors (use it with --decoder), a run record OUT.json, and a checkpoint "
-      "OUT.checkpoint.safetensors that --resume continues from");
+      "OUT.checkpoint.safetensors that --resume continues from. Data parallel over several processes or hosts: start it "
+      "with `lrf launch -n N --` or srun; --batch stays the global batch");
   auto o = std::make_shared<lrf::DecoderFinetuneOptions>();
   cmd->add_option("--fields", o->fields, "Finished latent fields (`lrf train --space latent` folders)")->required();
   cmd->add_option("-o,--output", o->out, "Fine-tuned decoder to write (.safetensors)")->required();
@@ -35,8 +37,12 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "Write the checkpoint every N steps")->capture_default_str();
   cmd->add_flag("--resume", o->resume, "Continue from OUT.checkpoint.safetensors (same options; --steps may grow)");
   cmd->add_flag("--force", o->force, "Overwrite an existing output (starting afresh)");
-  lrf::cli::on_run(cmd, [o] {
+  auto dist = std::make_shared<lrf::DistributedOptions>();
+  lrf::cli::add_distributed_flags(cmd, dist.get());
+  lrf::cli::on_run(cmd, [o, dist] {
+    o->distributed = lrf::cli::resolve_distributed_flags(*dist);
     lrf::DecoderFinetuneResult r = lrf::finetune_decoder(*o);
+    if (!r.main_rank) return 0;
     std::printf("finetune-decoder: %lld steps on %lld training + %lld held-out rendered views, last loss %.5f "
                 "(train %.5f, novel %.5f), %.1f s\n",
                 static_cast<long long>(r.steps), static_cast<long long>(r.train_samples),

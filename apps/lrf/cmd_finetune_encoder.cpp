@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "distributed_flags.h"
 #include "lrf/finetune/encoder_finetune.h"
 
 namespace {
@@ -13,7 +14,8 @@ lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
       "Stage I: fine-tune an autoencoder's encoder on posed multi-view scenes so that latents of the same 3D point "
       "agree across views (loss L_VAE + lambda1 L_corres + lambda2 L_reg, decoder frozen). Writes the encoder as "
       ".safetensors (use it with --encoder), a run record OUT.json, and a checkpoint OUT.checkpoint.safetensors that "
-      "--resume continues from");
+      "--resume continues from. Data parallel over several processes or hosts: start it with `lrf launch -n N --` or "
+      "srun; --pairs stays the global batch");
   auto o = std::make_shared<lrf::EncoderFinetuneOptions>();
   cmd->add_option("--scenes", o->scenes, "Training scenes (COLMAP, LLFF or NeRF folders with poses)")->required();
   cmd->add_option("-o,--output", o->out, "Fine-tuned encoder to write (.safetensors)")->required();
@@ -51,8 +53,12 @@ lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "Write the checkpoint every N steps")->capture_default_str();
   cmd->add_flag("--resume", o->resume, "Continue from OUT.checkpoint.safetensors (same options; --steps may grow)");
   cmd->add_flag("--force", o->force, "Overwrite an existing output (starting afresh)");
-  lrf::cli::on_run(cmd, [o] {
+  auto dist = std::make_shared<lrf::DistributedOptions>();
+  lrf::cli::add_distributed_flags(cmd, dist.get());
+  lrf::cli::on_run(cmd, [o, dist] {
+    o->distributed = lrf::cli::resolve_distributed_flags(*dist);
     lrf::EncoderFinetuneResult r = lrf::finetune_encoder(*o);
+    if (!r.main_rank) return 0;
     std::printf("finetune-encoder: %lld steps, last loss %.5f (vae %.5f, corres %.5f, reg %.6f), %.1f s\n",
                 static_cast<long long>(r.steps), r.last_total, r.last_vae, r.last_corres, r.last_reg, r.seconds);
     return 0;

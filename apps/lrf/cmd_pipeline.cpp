@@ -59,8 +59,20 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
                 "Add the rgb and rgb-mip rows: RGB fields at full resolution, without and with Mip-Splatting's filters "
                 "(upper references, and Table 2's 3DGS and Mip-Splatting rows; the costliest fields to train)");
   cmd->add_flag("!--no-refine", o->refine_rows, "Skip the refined rows (stock+refine, both+refine)");
-  lrf::cli::on_run(cmd, [o] {
+  auto shard = std::make_shared<std::string>();
+  cmd->add_option("--shard", *shard,
+                  "i/n: run only the i-th of n shares of the per-scene steps (field fits and their refinements and "
+                  "evaluations) whose inputs are finished, e.g. as a Slurm array; never Stage I, Stage III or the "
+                  "tables. The same command without --shard then reuses everything the shards finished and does the "
+                  "rest");
+  lrf::cli::on_run(cmd, [o, shard] {
+    if (!shard->empty()) lrf::parse_shard(*shard, o.get());
     auto record = lrf::run_pipeline(*o);
+    if (o->shard_count > 1) {
+      std::printf("%s: %zu unit(s) done, %zu left for the unsharded command\n",
+                  record["shard"].get<std::string>().c_str(), record["done"].size(), record["left"].size());
+      return 0;
+    }
     std::printf("%s", lrf::read_file((std::filesystem::path(o->out) / "ablation.md").string()).c_str());
     return 0;
   });

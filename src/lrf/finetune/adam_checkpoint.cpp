@@ -17,6 +17,13 @@ ParamAdam::ParamAdam(std::vector<at::Tensor> params, AdamOptions options)
   }
 }
 
+std::vector<at::Tensor> ParamAdam::state_tensors() const {
+  std::vector<at::Tensor> all = params_;
+  all.insert(all.end(), m_.begin(), m_.end());
+  all.insert(all.end(), v_.begin(), v_.end());
+  return all;
+}
+
 void ParamAdam::zero_grad() {
   for (auto& p : params_) {
     if (p.grad().defined()) p.mutable_grad() = at::Tensor();

@@ -25,6 +25,10 @@ class ParamAdam {
   // One update from the parameters' .grad() (parameters without a gradient are skipped).
   void step();
   int64_t steps() const { return steps_; }
+  void set_steps(int64_t steps) { steps_ = steps; }
+  const std::vector<at::Tensor>& parameters() const { return params_; }
+  // The parameters, then both moments: the whole state but the step (for copying it between ranks).
+  std::vector<at::Tensor> state_tensors() const;
   void set_lr(double lr) { options_.lr = lr; }
   double lr() const { return options_.lr; }
 

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <random>
 
 #include <torch/torch.h>
@@ -11,11 +12,11 @@
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
-#include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/finetune_output.h"
 
 namespace fs = std::filesystem;
@@ -91,105 +92,156 @@ nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& o) {
 std::string decoder_checkpoint_path(const std::string& out) { return out + ".checkpoint.safetensors"; }
 std::string decoder_record_path(const std::string& out) { return fs::path(out).replace_extension(".json").string(); }
 
+namespace {
+
+// What every rank must agree on before a data-parallel Stage III starts: the options, the model and the
+// rendered dataset (its sizes and a checksum of its latents).
+nlohmann::json stage3_inputs(const DecoderFinetuneOptions& o, const std::vector<Sample>& train,
+                             const std::vector<Sample>& novel, int crop) {
+  double checksum = 0;
+  for (const auto* set : {&train, &novel}) {
+    for (const auto& s : *set) checksum += s.latent.to(at::kDouble).sum().item<double>();
+  }
+  return {{"options", decoder_finetune_options_json(o)},
+          {"autoencoder_identity", autoencoder_identity(o.autoencoder, o.encoder)},
+          {"train_views", train.size()},
+          {"novel_views", novel.size()},
+          {"crop_used", crop},
+          // Rendering is deterministic on one kind of CPU; a few digits are enough to tell other data.
+          {"latent_checksum", std::to_string(static_cast<float>(checksum))}};
+}
+
+// The crops of one term that this rank takes, and the mean L1 over them as its part of the term.
+at::Tensor share_l1(Autoencoder& ae, const std::pair<at::Tensor, at::Tensor>& crops, const BatchShare& share) {
+  at::Tensor z = crops.first, x = crops.second;
+  if (share.count != share.total) {
+    z = z.narrow(0, share.first, share.count);
+    x = x.narrow(0, share.first, share.count);
+  }
+  at::Tensor l = (ae.decode_unclamped(z) - x).abs().mean();
+  const double part = share_weight(share);
+  return part == 1.0 ? l : l * part;
+}
+
+}  // namespace
+
 DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (o.fields.empty()) fail("finetune-decoder: give at least one latent field with --fields");
   if (o.out.empty()) fail("finetune-decoder: no output file (-o)");
   if (o.steps < 1 || o.batch < 1) fail("finetune-decoder: --steps and --batch must be at least 1");
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");
+  const int world = std::max(1, o.distributed.world_size);
+  if (o.batch < world) {
+    fail("finetune-decoder: --batch " + std::to_string(o.batch) + " is the global batch, split over " +
+         std::to_string(world) + " ranks: give at least one crop per rank");
+  }
   const std::string ckpt = decoder_checkpoint_path(o.out);
-  const auto lock = claim_finetune_output(o.out, ckpt, o.force, o.resume);
+  auto group = join_data_parallel(o.distributed, "finetune-decoder");
 
+  // Rank 0 alone owns the output; every rank renders the dataset and loads the model. Whatever stops one
+  // rank stops all of them before the first step.
+  std::optional<FolderLock> lock;
   std::vector<Sample> train, novel;
   nlohmann::json scenes = nlohmann::json::array();
-  build_dataset(o, &train, &novel, &scenes);
-  if (train.empty() && o.weight_train > 0) fail(o.fields.front(), "the fields have no training views");
-  if (novel.empty() && o.weight_novel > 0) {
-    fail(o.fields.front(), "the fields have no held-out views for the novel-view term (train them with test views, "
-                           "or pass --weight-novel 0)");
-  }
   int crop = o.crop / 8 * 8;
-  for (const auto* set : {&train, &novel}) {
-    for (const auto& s : *set) crop = static_cast<int>(std::min<int64_t>({crop, s.image.size(1), s.image.size(2)}));
+  std::unique_ptr<Autoencoder> ae;
+  std::string problem;
+  try {
+    if (group->is_main()) lock.emplace(claim_finetune_output(o.out, ckpt, o.force, o.resume));
+    build_dataset(o, &train, &novel, &scenes);
+    if (train.empty() && o.weight_train > 0) fail(o.fields.front(), "the fields have no training views");
+    if (novel.empty() && o.weight_novel > 0) {
+      fail(o.fields.front(), "the fields have no held-out views for the novel-view term (train them with test views, "
+                             "or pass --weight-novel 0)");
+    }
+    for (const auto* set : {&train, &novel}) {
+      for (const auto& s : *set) crop = static_cast<int>(std::min<int64_t>({crop, s.image.size(1), s.image.size(2)}));
+    }
+    if (crop < 8) fail("finetune-decoder: --crop must be at least 8");
+    if (group->is_main() && !o.resume && fs::exists(ckpt)) fs::remove(ckpt);
+    ae = load_autoencoder(o.autoencoder, o.encoder, o.decoder);
+  } catch (const Error& e) {
+    if (!group->distributed()) throw;
+    problem = e.what();
   }
-  if (crop < 8) fail("finetune-decoder: --crop must be at least 8");
-  if (!o.resume && fs::exists(ckpt)) fs::remove(ckpt);
+  group->start_together(problem);
+  group->require_same_as_main(stage3_inputs(o, train, novel, crop), "options or inputs");
 
-  auto ae = load_autoencoder(o.autoencoder, o.encoder, o.decoder);
   ae->set_encoder_trainable(false);
   ae->set_decoder_trainable(true);
   const int per_step = (o.weight_train > 0 ? o.batch : 0) + (o.weight_novel > 0 ? o.batch : 0);
   ParamAdam adam(ae->decoder_parameters(), {o.lr > 0 ? o.lr : o.base_lr * per_step});
-  const std::string key = resume_key(o).dump();
-  if (o.resume) {
-    auto meta = adam.load(ckpt);
-    if (meta["lrf_resume_key"] != key) {
-      fail(ckpt, "was written with different options; resume with the same fields, model, batch, crop, weights, "
-                 "learning rate and seed");
-    }
-    warn_if_precision_changed(meta, ae->precision(), ckpt);
-    log_info("resuming from " + ckpt + " at step " + std::to_string(adam.steps()));
+  const BatchShare share = batch_share(o.batch, group->rank(), group->world_size());
+  if (group->is_main()) {
+    log_info("Stage III: " + ae->description() + ", " + std::to_string(train.size()) + " training and " +
+             std::to_string(novel.size()) + " held-out rendered views, " + std::to_string(o.batch) + "+" +
+             std::to_string(o.batch) + " crops of " + std::to_string(crop) + " px per step" +
+             (group->distributed() ? " (split over " + std::to_string(group->world_size()) + " ranks)" : "") +
+             ", Adam lr " + std::to_string(adam.lr()));
   }
-  log_info("Stage III: " + ae->description() + ", " + std::to_string(train.size()) + " training and " +
-           std::to_string(novel.size()) + " held-out rendered views, " + std::to_string(o.batch) + "+" +
-           std::to_string(o.batch) + " crops of " + std::to_string(crop) + " px per step, Adam lr " +
-           std::to_string(adam.lr()));
-  auto save_checkpoint = [&] {
-    adam.save(ckpt, {{"lrf_kind", "finetune-decoder"}, {"lrf_resume_key", key}, precision_metadata(ae->precision())});
-  };
 
-  DecoderFinetuneResult r;
-  r.train_samples = static_cast<int64_t>(train.size());
-  r.novel_samples = static_cast<int64_t>(novel.size());
-  Progress progress("finetune-decoder", o.steps, 2.0, adam.steps());
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int64_t step = adam.steps(); step < o.steps; ++step) {
+  FinetuneLoop loop;
+  loop.task = "finetune-decoder";
+  loop.out = o.out;
+  loop.checkpoint = ckpt;
+  loop.kind = "finetune-decoder";
+  loop.resume_key = resume_key(o).dump();
+  loop.resume_hint = "fields, model, batch, crop, weights, learning rate and seed";
+  loop.steps = o.steps;
+  loop.checkpoint_every = o.checkpoint_every;
+  loop.resume = o.resume;
+  loop.precision = ae->precision();
+  loop.adam = &adam;
+  loop.group = group.get();
+  loop.step_loss = [&](int64_t step) {
+    // Every rank draws the whole batch's crops from the step's generator and keeps its share.
     std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) * 0xD1B54A32D192ED03ull + 7);
-    adam.zero_grad();
     at::Tensor loss = torch::zeros({});
     double l_train = 0, l_novel = 0;
     if (o.weight_train > 0) {
-      auto [z, x] = sample_crops(train, o.batch, crop, rng);
-      at::Tensor l = (ae->decode_unclamped(z) - x).abs().mean();
+      at::Tensor l = share_l1(*ae, sample_crops(train, o.batch, crop, rng), share);
       l_train = l.item<double>();
       loss = loss + o.weight_train * l;
     }
     if (o.weight_novel > 0) {
-      auto [z, x] = sample_crops(novel, o.batch, crop, rng);
-      at::Tensor l = (ae->decode_unclamped(z) - x).abs().mean();
+      at::Tensor l = share_l1(*ae, sample_crops(novel, o.batch, crop, rng), share);
       l_novel = l.item<double>();
       loss = loss + o.weight_novel * l;
     }
-    const double total = loss.item<double>();
-    if (!std::isfinite(total)) fail_non_finite_loss(o.out, total, step + 1, ckpt);
-    loss.backward();
-    adam.step();
-    r.last_loss = total;
-    r.last_train = l_train;
-    r.last_novel = l_novel;
-    progress.update(step + 1, {{"loss", total}, {"l1_train", l_train}, {"l1_novel", l_novel}});
-    if (o.checkpoint_every > 0 && (step + 1) % o.checkpoint_every == 0 && step + 1 < o.steps) save_checkpoint();
+    return FinetuneStepLoss{loss, {{"l1_train", l_train}, {"l1_novel", l_novel}}};
+  };
+  FinetuneLoopResult run = run_finetune_loop(loop);
+
+  DecoderFinetuneResult r;
+  r.main_rank = group->is_main();
+  r.train_samples = static_cast<int64_t>(train.size());
+  r.novel_samples = static_cast<int64_t>(novel.size());
+  r.steps = run.steps;
+  r.seconds = run.seconds;
+  r.last_loss = run.last_loss;
+  r.last_train = run.last_metrics["l1_train"];
+  r.last_novel = run.last_metrics["l1_novel"];
+  if (group->is_main()) {
+    ae->save_decoder(o.out);
+    nlohmann::json record = run_record(decoder_finetune_options_json(o));
+    record["field_scenes"] = scenes;
+    record["autoencoder_identity"] = autoencoder_identity(o.autoencoder, o.encoder);
+    record["crop_used"] = crop;
+    record["adam_lr"] = adam.lr();
+    record["precision"] = precision_name(ae->precision());
+    record["world_size"] = group->world_size();
+    record["result"] = {{"steps", r.steps},
+                        {"train_samples", r.train_samples},
+                        {"novel_samples", r.novel_samples},
+                        {"seconds_this_session", r.seconds},
+                        {"loss", r.last_loss},
+                        {"l1_train", r.last_train},
+                        {"l1_novel", r.last_novel}};
+    write_json_file(decoder_record_path(o.out), record);
+    log_info("wrote " + o.out + " and " + decoder_record_path(o.out));
   }
-  progress.finish();
-  save_checkpoint();
-  r.steps = o.steps;
-  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  ae->save_decoder(o.out);
-  nlohmann::json record = run_record(decoder_finetune_options_json(o));
-  record["field_scenes"] = scenes;
-  record["autoencoder_identity"] = autoencoder_identity(o.autoencoder, o.encoder);
-  record["crop_used"] = crop;
-  record["adam_lr"] = adam.lr();
-  record["precision"] = precision_name(ae->precision());
-  record["result"] = {{"steps", r.steps},
-                      {"train_samples", r.train_samples},
-                      {"novel_samples", r.novel_samples},
-                      {"seconds_this_session", r.seconds},
-                      {"loss", r.last_loss},
-                      {"l1_train", r.last_train},
-                      {"l1_novel", r.last_novel}};
-  write_json_file(decoder_record_path(o.out), record);
-  log_info("wrote " + o.out + " and " + decoder_record_path(o.out));
+  finish_together(*group, o.out);
   return r;
 }
 

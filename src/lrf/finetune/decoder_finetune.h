@@ -13,6 +13,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/distributed/distributed_options.h"
+
 namespace lrf {
 
 struct DecoderFinetuneOptions {
@@ -29,9 +31,12 @@ struct DecoderFinetuneOptions {
   uint64_t seed = 0;
   int64_t checkpoint_every = 50;
   bool resume = false, force = false;
+  // Data parallelism: batch stays the global batch, split over the ranks (world size 1: one process).
+  DistributedOptions distributed{0, 1, 0, "127.0.0.1", 29500};
 };
 
 struct DecoderFinetuneResult {
+  bool main_rank = true;  // false on the ranks that write nothing
   int64_t steps = 0, train_samples = 0, novel_samples = 0;
   double seconds = 0, last_loss = 0, last_train = 0, last_novel = 0;
 };

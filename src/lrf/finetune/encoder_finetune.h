@@ -17,6 +17,8 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/distributed/distributed_options.h"
+#include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/pair_batches.h"
 
 namespace lrf {
@@ -38,6 +40,8 @@ struct EncoderFinetuneOptions {
   uint64_t seed = 0;
   int64_t checkpoint_every = 50;
   bool resume = false, force = false;
+  // Data parallelism: batch.pairs stays the global batch, split over the ranks (world size 1: one process).
+  DistributedOptions distributed{0, 1, 0, "127.0.0.1", 29500};
 };
 
 struct Stage1Losses {
@@ -47,10 +51,16 @@ struct Stage1Losses {
 // The loss of one batch. `original` is the frozen starting autoencoder (for L_reg).
 Stage1Losses stage1_losses(Autoencoder& model, Autoencoder& original, const PairBatch& batch,
                            const EncoderFinetuneOptions& options);
+// This rank's part of the loss of the global `batch`: the pairs of `share` (counted in pairs), each term
+// scaled so that the mean of the ranks' parts is the global batch's term (the correspondence term keeps
+// the APE weights of the whole batch; a KL-VAE's posterior noise is drawn for the whole batch and sliced).
+Stage1Losses stage1_losses(Autoencoder& model, Autoencoder& original, const PairBatch& batch,
+                           const EncoderFinetuneOptions& options, const BatchShare& share);
 
 struct EncoderFinetuneResult {
+  bool main_rank = true;  // false on the ranks that write nothing
   int64_t steps = 0;
-  double seconds = 0;
+  double seconds = 0, sync_seconds = 0;  // sync: waiting on the other ranks (see FinetuneLoopResult)
   double last_total = 0, last_vae = 0, last_corres = 0, last_reg = 0;
 };
 

@@ -1,6 +1,7 @@
 #include "lrf/pipeline/pipeline.h"
 
 #include <chrono>
+#include <functional>
 #include <filesystem>
 #include <map>
 #include <optional>
@@ -161,7 +162,7 @@ void ensure_refined_field(const PipelineOptions& o, const std::string& field, co
   refine_latent_field(r);
 }
 
-void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
+EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const Paths& paths) {
   EncoderFinetuneOptions e = o.stage1;
   e.scenes = o.train_scenes;
   e.correspondence_files.clear();
@@ -170,11 +171,22 @@ void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
   e.out = paths.encoder();
   e.max_side = o.max_side;
   e.seed = o.seed;
+  return e;
+}
+
+// True if Stage I finished with these options; throws if it finished with others.
+bool encoder_finished(const EncoderFinetuneOptions& e) {
   const std::string record = finetune_record_path(e.out);
-  if (fs::exists(e.out) && fs::exists(record)) {
-    require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
-                          finetune_settings(encoder_finetune_options_json(e)), "the Stage I encoder",
-                          fs::path(e.out).parent_path().string());
+  if (!fs::exists(e.out) || !fs::exists(record)) return false;
+  require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
+                        finetune_settings(encoder_finetune_options_json(e)), "the Stage I encoder",
+                        fs::path(e.out).parent_path().string());
+  return true;
+}
+
+void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
+  EncoderFinetuneOptions e = encoder_options(o, paths);
+  if (encoder_finished(e)) {
     log_info("reusing Stage I encoder " + e.out);
     return;
   }
@@ -184,8 +196,8 @@ void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
   finetune_encoder(e);
 }
 
-void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fields, const std::string& encoder,
-                    const std::string& out) {
+DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vector<std::string>& fields,
+                                       const std::string& encoder, const std::string& out) {
   DecoderFinetuneOptions d;
   d.fields = fields;
   d.autoencoder = o.autoencoder;
@@ -195,11 +207,23 @@ void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fi
   if (o.stage3_lr > 0) d.lr = o.stage3_lr;
   if (o.stage3_crop > 0) d.crop = o.stage3_crop;
   d.seed = o.seed;
-  const std::string record = decoder_record_path(out);
-  if (fs::exists(out) && fs::exists(record)) {
-    require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
-                          finetune_settings(decoder_finetune_options_json(d)), "the Stage III decoder",
-                          fs::path(out).parent_path().string());
+  return d;
+}
+
+// True if this Stage III decoder finished with these options; throws if it finished with others.
+bool decoder_finished(const DecoderFinetuneOptions& d) {
+  const std::string record = decoder_record_path(d.out);
+  if (!fs::exists(d.out) || !fs::exists(record)) return false;
+  require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
+                        finetune_settings(decoder_finetune_options_json(d)), "the Stage III decoder",
+                        fs::path(d.out).parent_path().string());
+  return true;
+}
+
+void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fields, const std::string& encoder,
+                    const std::string& out) {
+  DecoderFinetuneOptions d = decoder_options(o, fields, encoder, out);
+  if (decoder_finished(d)) {
     log_info("reusing Stage III decoder " + out);
     return;
   }
@@ -254,6 +278,19 @@ const std::vector<std::string>& ablation_rows() {
 
 namespace {
 bool image_space_row(const std::string& row) { return row.rfind("rgb", 0) == 0; }
+
+// The image-space baselines: row, field folder tag, resolution factor, Mip filters.
+struct RgbBaseline {
+  const char* row;
+  const char* tag;
+  int factor;
+  bool mip;
+};
+const std::vector<RgbBaseline>& rgb_baselines() {
+  static const std::vector<RgbBaseline> list = {{"rgb/8", "rgb8", 8, false}, {"rgb/8-mip", "rgb8mip", 8, true},
+                                                {"rgb", "rgb", 1, false},     {"rgb-mip", "rgbmip", 1, true}};
+  return list;
+}
 }  // namespace
 
 void check_no_overlap(const std::vector<std::string>& train_scenes, const std::vector<std::string>& eval_scenes) {
@@ -266,6 +303,110 @@ void check_no_overlap(const std::vector<std::string>& train_scenes, const std::v
   }
 }
 
+void parse_shard(const std::string& text, PipelineOptions* options) {
+  const size_t slash = text.find('/');
+  int i = -1, n = 0;
+  try {
+    size_t used_i = 0, used_n = 0;
+    if (slash != std::string::npos) {
+      i = std::stoi(text.substr(0, slash), &used_i);
+      n = std::stoi(text.substr(slash + 1), &used_n);
+    }
+    if (used_i != slash || used_n != text.size() - slash - 1) n = 0;
+  } catch (const std::exception&) {
+    n = 0;
+  }
+  if (n < 1 || i < 0 || i >= n) fail("--shard '" + text + "': give i/n with 0 <= i < n (e.g. 0/2 and 1/2)");
+  options->shard_index = i;
+  options->shard_count = n;
+}
+
+namespace {
+
+// One shard's share of the per-scene steps (see run_pipeline in pipeline.h).
+nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<std::string, int>& downscale) {
+  const std::string me = "shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
+  nlohmann::json done = nlohmann::json::array(), left = nlohmann::json::array();
+  int unit = 0;
+  // Runs `work` if unit number `unit` is this shard's; `work` returns what it left undone ("" if nothing).
+  auto run_unit = [&](const std::string& name, const std::function<std::string()>& work) {
+    if (unit++ % o.shard_count != o.shard_index) return;
+    log_info("== " + me + ": " + name);
+    const std::string undone = work();
+    if (undone.empty()) {
+      done.push_back(name);
+    } else {
+      log_info(me + ": left " + name + " for later: " + undone);
+      left.push_back(name + ": " + undone);
+    }
+  };
+  const std::string encoder = paths.encoder();
+  const bool encoder_ready = encoder_finished(encoder_options(o, paths));
+  std::vector<std::string> stock_fields, ft_fields;
+  for (const auto& s : o.train_scenes) {
+    stock_fields.push_back(paths.field(s, "stock"));
+    ft_fields.push_back(paths.field(s, "ft"));
+  }
+  const bool decoder_stock_ready = decoder_finished(decoder_options(o, stock_fields, "", paths.decoder("stock")));
+  const bool decoder_ft_ready = decoder_finished(decoder_options(o, ft_fields, encoder, paths.decoder("ft")));
+  const std::string no_encoder = "needs the Stage I encoder (run the unsharded command)";
+
+  for (const auto& s : o.train_scenes) {
+    run_unit("field " + paths.field(s, "stock"), [&] {
+      ensure_latent_field(o, s, downscale[s], 0, paths.field(s, "stock"), "");
+      return std::string();
+    });
+    run_unit("field " + paths.field(s, "ft"), [&] {
+      if (!encoder_ready) return no_encoder;
+      ensure_latent_field(o, s, downscale[s], 0, paths.field(s, "ft"), encoder);
+      return std::string();
+    });
+  }
+  for (const auto& s : o.eval_scenes) {
+    const std::string stock_field = paths.field(s, "stock"), ft_field = paths.field(s, "ft");
+    run_unit("stock rows of " + scene_name(s), [&] {
+      ensure_latent_field(o, s, downscale[s], o.eval_train_views, stock_field, "");
+      ensure_latent_eval(o, stock_field, "", paths.eval(s, "stock"));
+      if (o.refine_rows) {
+        const std::string refined = paths.field(s, "stock-refined");
+        ensure_refined_field(o, stock_field, "", refined);
+        ensure_latent_eval(o, refined, "", paths.eval(s, "stock+refine"));
+      }
+      if (!decoder_stock_ready) return std::string("the decoder row needs the Stage III stock decoder");
+      ensure_latent_eval(o, stock_field, paths.decoder("stock"), paths.eval(s, "decoder"));
+      return std::string();
+    });
+    run_unit("Stage I rows of " + scene_name(s), [&] {
+      if (!encoder_ready) return no_encoder;
+      ensure_latent_field(o, s, downscale[s], o.eval_train_views, ft_field, encoder);
+      ensure_latent_eval(o, ft_field, "", paths.eval(s, "encoder"));
+      if (!decoder_ft_ready) return std::string("the both rows need the Stage III decoder of the Stage I fields");
+      ensure_latent_eval(o, ft_field, paths.decoder("ft"), paths.eval(s, "both"));
+      if (o.refine_rows) {
+        const std::string refined = paths.field(s, "ft-refined");
+        ensure_refined_field(o, ft_field, paths.decoder("ft"), refined);
+        ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
+      }
+      return std::string();
+    });
+    if (!o.rgb_baseline) continue;
+    for (const RgbBaseline& b : rgb_baselines()) {
+      if (b.factor == 1 && !o.rgb_full) continue;
+      run_unit(std::string(b.row) + " of " + scene_name(s), [&] {
+        const std::string rgb = paths.field(s, b.tag);
+        ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
+        if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, o.lpips_weights);
+        return std::string();
+      });
+    }
+  }
+  log_info(me + ": " + std::to_string(done.size()) + " unit(s) done, " + std::to_string(left.size()) +
+           " left for the unsharded command");
+  return {{"shard", me}, {"done", done}, {"left", left}};
+}
+
+}  // namespace
+
 nlohmann::json run_pipeline(const PipelineOptions& o) {
   if (o.train_scenes.empty() || o.eval_scenes.empty()) fail("pipeline: give --train-scenes and --eval-scenes");
   if (o.out.empty()) fail("pipeline: no output folder (-o)");
@@ -276,6 +417,16 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       if (!fs::is_directory(s)) fail(s, "scene folder not found");
       if (!names.insert(scene_name(s)).second) fail(s, "two scenes share the folder name '" + scene_name(s) + "'");
     }
+  }
+  if (o.shard_count > 1) {
+    // Shards share the folder with each other (each artefact is locked by the job writing it) and leave
+    // the record, the tables and the report to the unsharded command.
+    fs::create_directories(o.out);
+    std::map<std::string, int> downscale;
+    for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
+      for (const auto& s : *list) downscale[s] = downscale_for_max_side(s, "", o.max_side);
+    }
+    return run_shard(o, Paths{o.out}, downscale);
   }
   const auto t0 = std::chrono::steady_clock::now();
   fs::create_directories(o.out);
@@ -352,14 +503,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     std::map<std::string, nlohmann::json> m;
     std::map<std::string, std::string> image_dirs;
     if (o.rgb_baseline) {
-      struct Baseline {
-        const char* row;
-        const char* tag;
-        int factor;
-        bool mip;
-      };
-      for (const Baseline& b : {Baseline{"rgb/8", "rgb8", 8, false}, Baseline{"rgb/8-mip", "rgb8mip", 8, true},
-                                Baseline{"rgb", "rgb", 1, false}, Baseline{"rgb-mip", "rgbmip", 1, true}}) {
+      for (const RgbBaseline& b : rgb_baselines()) {
         if (b.factor == 1 && !o.rgb_full) continue;
         const std::string rgb = paths.field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);

@@ -38,13 +38,25 @@ struct PipelineOptions {
   bool rgb_baseline = true;         // the rgb/8 and rgb/8-mip rows
   bool rgb_full = false;            // the rgb and rgb-mip rows (full resolution: the most costly fields, on request)
   bool refine_rows = true;          // the stock+refine and both+refine rows
+  // --shard i/n: run only the i-th of n shares of the per-scene steps (see run_pipeline_shard).
+  int shard_index = 0, shard_count = 1;
 };
+
+// Parses "i/n" (0 <= i < n) into the options' shard; throws lrf::Error naming the text otherwise.
+void parse_shard(const std::string& text, PipelineOptions* options);
 
 // The ablation rows, in table order: the image-space baselines (rgb/8, rgb/8-mip, rgb, rgb-mip), the paper's
 // rows (stock, encoder, decoder, both), then the refined fields (stock+refine, both+refine).
 const std::vector<std::string>& ablation_rows();
 
-// Runs (or reuses) every step; returns the summary written to DIR/pipeline.json.
+// Runs (or reuses) every step; returns the summary written to DIR/pipeline.json. With a shard (n > 1)
+// runs only that share of the per-scene steps instead and returns what it did and what it left:
+// the per-scene steps are numbered in a fixed order, in units that keep a field together with
+// what needs only it (a field, its refinement, their evaluations), and unit k belongs to shard k mod n.
+// A shard runs its units whose inputs are finished and leaves the rest: it never runs Stage I or Stage III
+// (single jobs, data-parallel on their own), nor the tables. Shards run side by side on one folder
+// (each artefact is locked by the job writing it); the unsharded command afterwards reuses everything
+// they finished and does the rest.
 nlohmann::json run_pipeline(const PipelineOptions& options);
 
 // Throws lrf::Error if any evaluation scene is (the same folder as) a training scene.
