@@ -72,7 +72,9 @@ void field_config(const std::string& bytes) {
   } catch (const Error&) {
   }
   auto l = parse_latent_config(j, "fuzz");
-  if (static_cast<int>(l.field.background.size()) != l.range.channels())
+  // A latent field renders its latent channels, a feature field (feature-gs) its features.
+  const int rendered = l.feature_dim > 0 ? l.feature_dim : l.range.channels();
+  if (static_cast<int>(l.field.background.size()) != rendered)
     throw std::logic_error("latent config accepted with mismatched channels");
 }
 

@@ -249,6 +249,10 @@ int main(int argc, char** argv) {
       latent["latent_range"] = range.to_json();
       latent["init"] = "latents";
       seed(out, "field_config", "latent.json", latent.dump(2));
+      nlohmann::json feature = latent;  // a feature field (feature-gs): 2 features lifted to the 4 channels
+      feature["feature_dim"] = 2;
+      feature["background"] = std::vector<float>(2, 0.0f);
+      seed(out, "field_config", "feature.json", feature.dump(2));
     }
     fs::remove_all(scene);
     for (const auto& t : lrf::fuzz::target_names()) {

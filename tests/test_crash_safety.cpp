@@ -182,3 +182,48 @@ TEST(CrashSafety, KilledTrainingResumesToTheUninterruptedResult) {
   auto ma = lrf::read_json_file(straight + "/metrics.json"), mb = lrf::read_json_file(killed + "/metrics.json");
   for (const char* key : {"psnr", "ssim"}) EXPECT_EQ(ma[key], mb[key]) << key;
 }
+
+namespace {
+
+// Starts `lrf ARGS` and SIGKILLs it as soon as OUT/checkpoint.pt exists (the run must still be going then).
+void kill_after_first_checkpoint(const std::string& args, const std::string& out, const std::string& log) {
+  const pid_t pid = spawn_lrf(split(args), log);
+  ASSERT_GT(pid, 0);
+  const auto start = std::chrono::steady_clock::now();
+  int status = 0;
+  while (!fs::exists(fs::path(out) / "checkpoint.pt")) {
+    ASSERT_NE(::waitpid(pid, &status, WNOHANG), pid) << "the run ended before it could be killed: " << lrf::read_file(log);
+    ASSERT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(120)) << "no checkpoint written";
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_EQ(::kill(pid, SIGKILL), 0);
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "the run ended before it was killed";
+}
+
+}  // namespace
+
+// A feature field (feature-gs) keeps its lift's optimizer state beside the field's checkpoint: killed and
+// resumed, it ends with the same Gaussians and the same lift as an uninterrupted run.
+TEST(CrashSafety, KilledFeatureFieldResumesToTheUninterruptedResult) {
+  const std::string scene = lrf::test::synthetic_scene({16, "128x96", 7, 1500});
+  lrf::test::TempDir dir("crash_feature");
+  const std::string straight = dir / "straight", killed = dir / "killed";
+  auto args = [&](const std::string& out) {
+    return "--threads 2 -q train " + quote(scene) + " -o " + quote(out) + " --space latent --feature-dim 8 --iters 300 "
+           "--checkpoint-every 25 --seed 5 --cache-dir " + quote(dir / "cache");
+  };
+  // The uninterrupted run first: it also fills the latent cache, so that the killed run starts training at once.
+  auto uninterrupted = lrf::test::run_lrf(args(straight));
+  ASSERT_EQ(uninterrupted.exit_code, 0) << uninterrupted.output;
+  ASSERT_NO_FATAL_FAILURE(kill_after_first_checkpoint(args(killed), killed, dir / "killed.log"));
+  ASSERT_FALSE(lrf::read_json_file(killed + "/config.json").contains("result")) << "killed after it finished";
+  auto resumed = lrf::test::run_lrf(args(killed) + " --resume");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  for (const char* file : {"point_cloud.ply", "lift.safetensors"}) {
+    EXPECT_TRUE(lrf::read_file(straight + "/" + file) == lrf::read_file(killed + "/" + file))
+        << file << " of the resumed run differs from the uninterrupted run's";
+  }
+  EXPECT_EQ(lrf::read_json_file(straight + "/config.json")["result"]["final_loss"],
+            lrf::read_json_file(killed + "/config.json")["result"]["final_loss"]);
+}

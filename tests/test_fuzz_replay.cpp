@@ -62,6 +62,7 @@ TEST(FuzzReplay, TensorFormatSeedsAreAccepted) {
   EXPECT_EQ(lrf::splat::parse_ply(seed("ply/c4_sh0.ply"), "p", 4).max_sh_degree, 0);
   EXPECT_EQ(lrf::splat::parse_field_config(nlohmann::json::parse(seed("field_config/rgb.json")), "c").space, "rgb");
   EXPECT_EQ(lrf::parse_latent_config(nlohmann::json::parse(seed("field_config/latent.json")), "c").range.channels(), 4);
+  EXPECT_EQ(lrf::parse_latent_config(nlohmann::json::parse(seed("field_config/feature.json")), "c").feature_dim, 2);
   EXPECT_NE(lrf::test::error_of([&] {
               lrf::pickle::unpickle(seed("pickle/evil_os_system.pkl"), "evil", nullptr);
             }).find("refusing pickle global 'os.system'"),

@@ -9,6 +9,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/compare/compare.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/feature/feature_lift.h"
 
 namespace {
 
@@ -16,7 +17,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   auto* cmd = root.add_subcommand(
       "compare",
       "Table 1 on one scene: rgb/8, rgb/8-mip, latent and refined latent fields (and the full-resolution rgb and "
-      "rgb-mip fields and a latent NeRF on request), scored on the test views; writes DIR/table.csv, table.md, the efficiency table "
+      "rgb-mip fields, a latent NeRF and the feature-gs baseline on request), scored on the test views; writes DIR/table.csv, table.md, the efficiency table "
       "(what each method is fitted to, training time, peak memory, storage, render and decode FPS) efficiency.csv, "
       "efficiency.md, and report.html");
   auto o = std::make_shared<lrf::CompareOptions>();
@@ -44,9 +45,15 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "Methods to run: rgb, rgb-mip (full resolution, without / with Mip-Splatting's filters), rgb/8, "
                   "rgb/8-mip (RGB fields on 8x downscaled views), latent, "
                   "latent-refined (the latent field refined through the decoder against the training images), "
-                  "latent-nerf (a hash-grid NeRF fitted to the same latents by volume rendering: Latent-NeRF*)")
+                  "latent-nerf (a hash-grid NeRF fitted to the same latents by volume rendering: Latent-NeRF*), "
+                  "feature-gs (Feature 3DGS's idea: a low-dimensional feature field lifted to the latent by a 1x1 "
+                  "convolution trained with it)")
       ->capture_default_str();
   lrf::cli::add_refine_options(cmd, &o->refine, "latent-refined");
+  cmd->add_option("--feature-dim", o->feature_dim,
+                  "feature-gs: features per Gaussian (0: Feature 3DGS's default, half the latent channels, 16 for TAEF2)")
+      ->check(CLI::Range(0, lrf::kMaxFeatureDim))
+      ->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();

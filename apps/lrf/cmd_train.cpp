@@ -41,6 +41,7 @@ struct TrainOptions {
   std::string encoder;
   std::string init = "latents";
   double rgb_guide = 0;
+  int feature_dim = 0;  // > 0: a feature field (the feature-gs baseline)
   std::string cache_dir;
   lrf::InitPointsOptions init_points;
   // --space latent-nerf
@@ -61,6 +62,9 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.downscale = o.scene_options.downscale;
   l.test_every = o.scene_options.test_every;
   l.train_views = o.scene_options.train_views;
+  // A negative count is compare's "half the latent channels", met here only in a run being resumed.
+  if (o.feature_dim < 0 && !o.resume) lrf::fail("--feature-dim must be 0 (a latent field) or a feature count");
+  l.feature_dim = o.feature_dim;
   if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
     lrf::fail("--test-list, --crop8 and --format are not available with --space latent yet (latent views are always "
               "cropped to multiples of 8)");
@@ -73,7 +77,6 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.force = o.force;
   l.sparse_adam = o.sparse_adam;
   l.init_points = points;
-  if (o.rgb_guide != 0 && o.space != "latent") lrf::fail("--rgb-guide applies to latent fields");
   if (o.mip) lrf::fail("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
   lrf::train_latent_field(l);
   return 0;
@@ -131,6 +134,7 @@ nlohmann::json to_json(const TrainOptions& o) {
           {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
           {"checkpoint_every", o.checkpoint_every},
           {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background},
+          {"feature_dim", o.feature_dim},
           {"init_points", o.init_points.mode}, {"far_shell", o.init_points.shell.points},
           {"far_shell_radius", o.init_points.shell.radius_factor}};
 }
@@ -163,6 +167,7 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
       o.encoder = j.at("encoder").get<std::string>();
       o.init = j.at("init").get<std::string>();
       o.rgb_guide = j.value("rgb_guide", 0.0);
+      o.feature_dim = j.value("feature_dim", 0);
     } else {
       o.scene_options.test_list = j.at("test_list").get<std::string>();
       o.scene_options.format = j.at("format").get<std::string>();
@@ -193,10 +198,12 @@ int run_train(const TrainOptions& o) {
   InitPointsOptions points = o.init_points;
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
   check_init_points_mode(points.mode);
+  if (o.rgb_guide != 0 && o.space != "latent") fail("--rgb-guide applies to --space latent");
   if (o.space == "latent-nerf") return run_train_nerf(o, points);
   if (o.nerf_option_set) fail("--rays, --samples and --hash-log2 apply to --space latent-nerf");
   if (o.space == "latent") return run_train_latent(o, points);
   if (o.space != "rgb") fail("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
+  if (o.feature_dim != 0) fail("--feature-dim applies to --space latent (a feature field lifted to the latent)");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
   if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
@@ -281,6 +288,12 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                   "latent: weight of 3 extra channels fitted to the training images at latent resolution (8x "
                   "area-downsampled RGB) beside the latents and dropped when the field is written, so that the "
                   "geometry also follows the views' consistent colours (0 = latents alone, the paper's Stage II)")
+      ->capture_default_str();
+  cmd->add_option("--feature-dim", o->feature_dim,
+                  "latent: fit a feature field instead (the feature-gs baseline, after Feature 3DGS's speed-up "
+                  "module): Gaussians carrying D features, rendered at latent resolution and lifted to the latent "
+                  "channels by a 1x1 convolution trained with them (OUT/lift.safetensors). Feature 3DGS's default "
+                  "is half the latent channels: 16 for TAEF2. 0: a latent field")
       ->capture_default_str();
   cmd->add_option("--cache-dir", o->cache_dir, "Where encoded views (latent) and triangulated points are cached "
                                                "(default $LRF_CACHE or ~/.cache/lrf)");

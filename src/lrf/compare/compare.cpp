@@ -65,6 +65,23 @@ void require_same_settings(const std::string& summary_path, const nlohmann::json
   }
 }
 
+// A finished or interrupted feature-gs field is reused or resumed only with the feature count asked for now.
+void require_same_feature_dim(const std::string& dir, int wanted) {
+  const std::string config = (fs::path(dir) / "config.json").string();
+  if (!fs::exists(config)) return;
+  const nlohmann::json options = read_json_file(config).value("options", nlohmann::json::object());
+  const nlohmann::json recorded = options.value("feature_dim", nlohmann::json());
+  if (recorded == wanted) return;
+  // kHalfLatentChannels is how both the option and the record say "the default".
+  auto describe = [](const nlohmann::json& d) {
+    if (!d.is_number_integer()) return std::string("an unknown feature count");
+    return d.get<int>() == kHalfLatentChannels ? std::string("the default feature count (half the latent channels)")
+                                               : std::to_string(d.get<int>()) + " features";
+  };
+  fail(config, "feature-gs was trained here with " + describe(recorded) + ", this run asks for " +
+                   describe(wanted) + "; use another output folder, or --force");
+}
+
 // What a method's field is fitted to: the paper's efficiency table compares methods by the size of what
 // they optimise against as well as by time and memory.
 std::string fitted_to(const std::string& method, const std::string& dir, const Camera& camera) {
@@ -78,7 +95,13 @@ std::string fitted_to(const std::string& method, const std::string& dir, const C
     const nlohmann::json c = read_json_file(config.string());
     if (c.contains("background") && c["background"].is_array()) channels = std::to_string(c["background"].size());
   }
-  const std::string latents = eighth + "x" + channels + " latents";
+  std::string latents = eighth + "x" + channels + " latents";
+  if (method == "feature-gs" && fs::exists(config)) {
+    // The field renders fewer channels than the latent has: name both.
+    const nlohmann::json c = read_json_file(config.string());
+    latents = eighth + "x" + c.value("latent_channels", nlohmann::json()).dump() + " latents, from " +
+              c.value("feature_dim", nlohmann::json()).dump() + " features by a 1x1 convolution";
+  }
   return method == "latent-refined" ? latents + ", then " + full + " RGB through the decoder" : latents;
 }
 
@@ -102,15 +125,16 @@ ReportTable efficiency_table(const CompareOptions& o, const nlohmann::json& all,
 }  // namespace
 
 const std::vector<std::string>& compare_methods() {
-  static const std::vector<std::string> m = {"rgb",    "rgb-mip",        "rgb/8",      "rgb/8-mip",
-                                             "latent", "latent-refined", "latent-nerf"};
+  static const std::vector<std::string> m = {"rgb",    "rgb-mip",        "rgb/8",       "rgb/8-mip",
+                                             "latent", "latent-refined", "latent-nerf", "feature-gs"};
   return m;
 }
 
 nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& m : o.methods) {
     if (std::find(compare_methods().begin(), compare_methods().end(), m) == compare_methods().end())
-      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined, latent-nerf)");
+      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined, latent-nerf, "
+           "feature-gs)");
   }
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
@@ -170,6 +194,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& method : o.methods) {
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
+    const int feature_dim = o.feature_dim > 0 ? o.feature_dim : kHalfLatentChannels;
+    if (method == "feature-gs" && !o.force) require_same_feature_dim(dir, feature_dim);
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
     if (!o.force && fs::exists(metrics_path) && finished(method, dir)) {
       log_info(method + ": reusing " + metrics_path + " (pass --force to recompute)");
@@ -223,6 +249,32 @@ nlohmann::json run_compare(const CompareOptions& o) {
       le.decoder = o.decoder;
       le.lpips_weights = o.lpips_weights;
       all[method] = nerf::evaluate_nerf_run(dir, le);
+    } else if (method == "feature-gs") {
+      if (o.force || !splat::run_finished(dir)) {
+        // The latent field's training, with a feature field in place of latent features.
+        LatentTrainOptions l;
+        l.scene = o.scene;
+        l.out = dir;
+        l.images = o.images;
+        l.downscale = o.downscale;
+        l.test_every = o.test_every;
+        l.train_views = o.train_views;
+        l.autoencoder = o.autoencoder;
+        l.encoder = o.encoder;
+        l.cache_dir = o.cache_dir;
+        l.sh_degree = o.latent_sh_degree;
+        l.init_points = o.init_points;
+        l.iters = o.latent_iters > 0 ? o.latent_iters : o.iters;
+        l.seed = o.seed;
+        l.feature_dim = feature_dim;
+        l.resume = resume;
+        l.force = !resume;
+        train_latent_field(l);
+      }
+      LatentEvalOptions le;
+      le.decoder = o.decoder;
+      le.lpips_weights = o.lpips_weights;
+      all[method] = evaluate_latent_run(dir, le);
     } else {
       if (o.force || !splat::run_finished(dir)) {
         RgbBaselineOptions b;
@@ -284,7 +336,12 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        " iterations. rgb, rgb-mip: RGB 3D Gaussian splatting (rgb-mip with Mip-Splatting's "
                        "filters) on the full-resolution views. latent-refined: "
                        "the latent field refined through the decoder against the training images (lrf refine: " +
-                       refine_description(o.refine) + ").");
+                       refine_description(o.refine) + "). feature-gs: the Feature-GS baseline (Feature 3DGS's "
+                       "speed-up module): Gaussians carrying " +
+                       (o.feature_dim > 0 ? std::to_string(o.feature_dim) + " features"
+                                          : std::string("half as many features as the latent has channels")) +
+                       ", rendered at latent resolution, lifted to the latent by a 1x1 convolution trained with them "
+                       "on the latent field's targets and loss, decoded.");
   if (std::find(o.methods.begin(), o.methods.end(), "latent-nerf") != o.methods.end())
     spec.notes.push_back("latent-nerf: a hash-grid NeRF (Instant-NGP's architecture) fitted by volume rendering to the "
                          "same normalised latents as the latent field, decoded the same way (the paper's "

@@ -2,8 +2,9 @@
 // The paper's Table 1 on one scene: image-space baselines at latent resolution (3DGS/8 and
 // Mip-Splatting/8: RGB fields trained on the views downscaled 8x and rendered at full resolution), the
 // full-resolution RGB field, the latent field with the stock autoencoder (3DGS-VAE) and that field refined
-// through the decoder (lrf refine), a NeRF fitted to the same latents (Latent-NeRF*), all scored on the
-// same test views at the same resolution; a CSV / markdown table and a self-contained HTML report.
+// through the decoder (lrf refine), a NeRF fitted to the same latents (Latent-NeRF*), the Feature-GS
+// baseline (src/lrf/feature/), all scored on the same test views at the same resolution; a CSV / markdown
+// table and a self-contained HTML report.
 #include <string>
 #include <vector>
 
@@ -25,11 +26,12 @@ struct CompareOptions {
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
   InitPointsOptions init_points;  // every method starts from the same points
   RefineOptions refine;  // latent-refined: steps, crop, learning rates (run, out, decoder, seed are set here)
+  int feature_dim = 0;   // feature-gs: features per Gaussian (0 = Feature 3DGS's default, half the latent channels)
   bool force = false;
 };
 
 // Every method compare knows: rgb and rgb-mip (full resolution), rgb/8, rgb/8-mip, latent, latent-refined,
-// latent-nerf.
+// latent-nerf, feature-gs (a feature field lifted to the latent by a 1x1 convolution, after Feature 3DGS).
 const std::vector<std::string>& compare_methods();
 
 // Runs (or reuses) every method and writes OUT/table.csv, OUT/table.md and OUT/report.html.

@@ -1,6 +1,7 @@
 #include "lrf/latent/latent_config.h"
 
 #include "lrf/core/error.h"
+#include "lrf/feature/feature_lift.h"
 
 namespace lrf {
 
@@ -24,10 +25,21 @@ LatentConfig parse_latent_config(const nlohmann::json& c, const std::string& pat
       }
       l.resolution = {r[0].get<int>(), r[1].get<int>()};
     }
+    if (c.contains("feature_dim")) {
+      const auto& d = c["feature_dim"];
+      if (!d.is_number_integer() || d.get<int64_t>() < 1 || d.get<int64_t>() > kMaxFeatureDim)
+        fail(path, "\"feature_dim\" must be an integer from 1 to " + std::to_string(kMaxFeatureDim));
+      l.feature_dim = d.get<int>();
+    }
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("missing or bad latent field settings: ") + e.what());
   }
-  if (static_cast<int>(l.field.background.size()) != l.range.channels()) {
+  if (l.feature_dim > 0) {
+    if (static_cast<int>(l.field.background.size()) != l.feature_dim) {
+      fail(path, "\"background\" has " + std::to_string(l.field.background.size()) + " channels, \"feature_dim\" " +
+                     std::to_string(l.feature_dim));
+    }
+  } else if (static_cast<int>(l.field.background.size()) != l.range.channels()) {
     fail(path, "\"background\" has " + std::to_string(l.field.background.size()) + " channels, \"latent_range\" " +
                    std::to_string(l.range.channels()));
   }

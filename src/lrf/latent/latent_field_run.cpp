@@ -62,13 +62,23 @@ LatentRun open_latent_run(const std::string& out) {
   }
   const std::string ply = (fs::path(out) / "point_cloud.ply").string();
   if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
-  run.field = splat::read_ply(ply, run.range.channels());
+  if (c.feature_dim > 0) {
+    run.field = splat::read_ply(ply, c.feature_dim);
+    const std::string lift = (fs::path(out) / "lift.safetensors").string();
+    if (!fs::exists(lift)) fail(lift, "not found: a feature field needs the lift it was trained with");
+    run.lift = FeatureLift::load(lift, c.feature_dim, run.range.channels());
+  } else {
+    run.field = splat::read_ply(ply, run.range.channels());
+  }
   return run;
 }
 
 torch::Tensor render_latent(const LatentRun& run, int view) {
   Camera cam = latent_camera(run.scene.views.at(static_cast<size_t>(view)).camera);
-  return splat::render_field(run.field, cam, run.render).image;
+  torch::Tensor rendered = splat::render_field(run.field, cam, run.render).image;
+  if (!run.lift.defined()) return rendered;
+  torch::NoGradGuard no_grad;
+  return run.lift.apply(rendered);
 }
 
 nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptions& o) {
@@ -142,7 +152,13 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   }
   std::error_code ec;
   const std::string field_file = (fs::path(out) / "point_cloud.ply").string();
-  metrics["storage_mb"] = double(fs::file_size(field_file, ec)) / (1 << 20);
+  double storage = double(fs::file_size(field_file, ec));
+  if (run.lift.defined()) {
+    // A feature field is its Gaussians and its lift.
+    storage += double(fs::file_size((fs::path(out) / "lift.safetensors").string(), ec));
+    metrics["feature_dim"] = run.lift.feature_dim();
+  }
+  metrics["storage_mb"] = storage / (1 << 20);
   // Which version of the field these scores belong to, so that a reused score can be checked against it.
   metrics["field_stamp"] = file_stamp(field_file);
   metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});

@@ -3,13 +3,16 @@
 // latents, decode them and score the decoded test views.
 //
 // OUT/config.json records the scene, resolution, autoencoder (and encoder override), the latent range and
-// the training options; OUT/point_cloud.ply holds the field with C = latent channels.
+// the training options; OUT/point_cloud.ply holds the field with C = latent channels. A feature field
+// (--feature-dim D) holds D channels there, records "feature_dim": D, and keeps its lift in
+// OUT/lift.safetensors.
 #include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/feature/feature_lift.h"
 #include "lrf/latent/latent_normalization.h"
 #include "lrf/points/initial_points.h"
 #include "lrf/scene/scene.h"
@@ -22,6 +25,8 @@ namespace lrf {
 // multiplies the feature memory and optimizer work (degree 3: 16x), and latents of a static scene are
 // largely view-independent; measured in the Stage II note.
 constexpr int kDefaultLatentShDegree = 0;
+// LatentTrainOptions::feature_dim asking for default_feature_dim(latent channels).
+constexpr int kHalfLatentChannels = -1;
 
 struct LatentTrainOptions {
   std::string scene, out, images, autoencoder = "taef2", encoder, init = "latents", cache_dir;
@@ -30,6 +35,10 @@ struct LatentTrainOptions {
   double rgb_guide = 0;
   int downscale = 1, test_every = 8, sh_degree = 0;
   int train_views = 0;  // few-shot: K evenly spaced training views (SceneOptions::train_views); 0 = all
+  // > 0: a feature field (the feature-gs baseline, src/lrf/feature/): the Gaussians carry this many
+  // features, lifted to the latent channels by a 1x1 convolution trained with them. 0: a latent field.
+  // kHalfLatentChannels: Feature 3DGS's default, half the autoencoder's latent channels.
+  int feature_dim = 0;
   int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
   uint64_t seed = 0;
   bool resume = false, force = false, sparse_adam = false;
@@ -52,6 +61,7 @@ struct LatentRun {
   LatentRange range;
   std::string autoencoder, encoder;
   std::string decoder;  // the decoder a refined field was fitted through ("" = the autoencoder's)
+  FeatureLift lift;     // a feature field's 1x1 convolution (undefined for a latent field)
 };
 
 // Opens OUT; throws lrf::Error naming the file when it is not a finished latent run, or when the scene
@@ -59,7 +69,8 @@ struct LatentRun {
 LatentRun open_latent_run(const std::string& out);
 bool is_latent_run(const std::string& out);
 
-// Renders view i's normalised latent [C, h, w] (latent resolution of the training camera).
+// Renders view i's normalised latent [C, h, w] (latent resolution of the training camera); a feature
+// field's rendered features are lifted to the latent channels first.
 torch::Tensor render_latent(const LatentRun& run, int view);
 
 struct LatentEvalOptions {

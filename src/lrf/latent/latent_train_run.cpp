@@ -1,4 +1,5 @@
 #include <filesystem>
+#include <memory>
 
 #include <torch/torch.h>
 
@@ -7,6 +8,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
+#include "lrf/feature/feature_training.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
@@ -22,7 +24,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
   return {{"scene", o.scene},       {"out", o.out},           {"images", o.images},
           {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
           {"downscale", o.downscale}, {"test_every", o.test_every}, {"train_views", o.train_views},
-          {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
+          {"feature_dim", o.feature_dim}, {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
           {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
           {"checkpoint_every", o.checkpoint_every}};
@@ -35,6 +37,10 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   if (o.iters < 1) fail("--iters must be at least 1");
   if (!(o.rgb_guide >= 0)) fail("--rgb-guide must be 0 (off) or a positive weight");
   LatentInit init = parse_latent_init(o.init);
+  if (o.feature_dim != 0 && o.feature_dim != kHalfLatentChannels && (o.feature_dim < 1 || o.feature_dim > kMaxFeatureDim))
+    fail("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(o.feature_dim));
+  if (o.feature_dim != 0 && init != LatentInit::latents)
+    fail("--init rgb chooses latent features; a feature field (--feature-dim) starts from constant features");
   const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
 
   SceneOptions so;
@@ -57,8 +63,21 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
                                     o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
   const double encode_seconds = encode_clock.seconds();
   log_info(std::string("training latents ") + (cached.hit ? "read from " : "encoded, cached in ") + cached.path);
-  LatentTrainingData data =
-      prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed, o.init_points, o.rgb_guide);
+  LatentTrainingData data = prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed,
+                                                    o.init_points, o.rgb_guide);
+  const int channels = ae->latent_channels();
+  const int feature_dim = o.feature_dim == kHalfLatentChannels ? default_feature_dim(channels) : o.feature_dim;
+  std::unique_ptr<FeatureLiftTraining> lift;  // a feature field's lift (feature-gs), trained with it
+  if (feature_dim > 0 && o.rgb_guide > 0) fail("--rgb-guide does not apply to feature fields (--feature-dim)");
+  if (feature_dim > 0) {
+    data.init = feature_field_start(data.init, feature_dim);
+    data.init_description += "; as a feature field: " + std::to_string(feature_dim) +
+                             " features per Gaussian at 0.5, lifted to " + std::to_string(channels) +
+                             " latent channels by a 1x1 convolution";
+    lift = std::make_unique<FeatureLiftTraining>(FeatureLift::initial(feature_dim, channels, o.seed + 2),
+                                                 kLiftLearningRate, o.out, o.checkpoint_every, o.iters);
+    if (!o.resume) lift->remove_checkpoints();
+  }
   log_info("initial field: " + data.init_description);
 
   TrainerOptions to;
@@ -68,15 +87,20 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   to.sparse_adam = o.sparse_adam;
   to.schedule = DensifySchedule::for_iterations(o.iters);
   to.densify.max_gaussians = o.max_gaussians;
-  to.background = torch::zeros({data.init.channels()});
+  to.background = torch::zeros({feature_dim > 0 ? feature_dim : data.init.channels()});
   const double extent = scene.camera_extent();
+  if (lift) {
+    std::vector<torch::Tensor> targets;
+    for (const auto& v : data.views) targets.push_back(v.target);
+    lift->attach(to, std::move(targets), to.lambda_ssim);
+  }
 
   auto config = run_record(options_json(o));
   config.update(scene_config(o.scene, so, scene));
   config["space"] = "latent";
   config["sh_degree"] = o.sh_degree;
   config["mip"] = false;
-  config["background"] = std::vector<float>(static_cast<size_t>(ae->latent_channels()), 0.0f);
+  config["background"] = std::vector<float>(static_cast<size_t>(feature_dim > 0 ? feature_dim : channels), 0.0f);
   config["extent"] = extent;
   config["autoencoder"] = o.autoencoder;
   config["encoder"] = o.encoder;
@@ -86,6 +110,15 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   config["init"] = o.init;
   config["rgb_guide"] = o.rgb_guide;
   config["init_points"] = data.init_points;
+  if (feature_dim > 0) {
+    config["feature_dim"] = feature_dim;
+    config["feature_field"] = {{"lift", "lift.safetensors"},
+                               {"feature_lr", kFeatureLearningRate},
+                               {"lift_lr", kLiftLearningRate},
+                               {"feature_init", 0.5},
+                               {"lift_init", "uniform +-1/sqrt(feature_dim), PyTorch's Conv2d default"},
+                               {"loss", "(1 - 0.2) L1 + 0.2 (1 - SSIM) of the lifted render and the normalised latent"}};
+  }
   const std::string config_path = (fs::path(o.out) / "config.json").string();
   write_json_file(config_path, config);
 
@@ -94,11 +127,11 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   ro.out = o.out;
   ro.resume = o.resume;
   ro.checkpoint_every = o.checkpoint_every;
-  ro.task = "train-latent";
-  const int64_t latent_channels = ae->latent_channels();
+  ro.task = feature_dim > 0 ? "train-feature" : "train-latent";
+  if (lift) lift->attach(ro, trainer);
   if (o.rgb_guide > 0) {
-    ro.exported = [latent_channels](splat::Gaussians g) {
-      g.sh = g.sh.narrow(2, 0, latent_channels).contiguous();
+    ro.exported = [channels](splat::Gaussians g) {
+      g.sh = g.sh.narrow(2, 0, channels).contiguous();
       return g;
     };
   }
@@ -107,7 +140,8 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
                       {"encode_seconds", encode_seconds}, {"final_loss", summary.last_loss},
                       {"peak_memory_mb", peak_memory_mb()}};
   write_json_file(config_path, config);
-  log_info("wrote " + o.out + "/point_cloud.ply: " + std::to_string(summary.gaussians) + " latent Gaussians after " +
+  log_info("wrote " + o.out + "/point_cloud.ply: " + std::to_string(summary.gaussians) +
+           (feature_dim > 0 ? " feature Gaussians (and lift.safetensors)" : " latent Gaussians") + " after " +
            std::to_string(summary.steps) + " steps in " + Progress::format_duration(summary.seconds));
   return {summary.steps, summary.gaussians, summary.seconds, encode_seconds};
 }

@@ -92,6 +92,9 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   check_options(o);
   LatentRun src = open_latent_run(o.run);
   if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
+  if (src.lift.defined())
+    fail(o.run, "a feature field (feature-gs) cannot be refined: refinement moves latent features, and this field's "
+                "features are lifted to latents by its own 1x1 convolution");
   const std::string config_path = (fs::path(o.out) / "config.json").string();
   if (o.resume) {
     if (!fs::exists(config_path)) fail(config_path, "--resume: not found");
