@@ -163,17 +163,11 @@ nlohmann::json run_compare(const CompareOptions& o) {
     const std::string checkpoint = method == "latent-nerf" ? nerf::nerf_checkpoint_path(dir) : splat::checkpoint_path(dir);
     return !o.force && fs::exists(checkpoint) && !finished(method, dir);
   };
-  // The latent field: the latent row, and what latent-refined starts from.
-  const std::string latent_dir = (fs::path(o.out) / "latent").string();
-  bool latent_fresh = false;  // trained by this call (then a refined field made from an older one is stale)
-  auto ensure_latent_field = [&] {
-    if (!o.force && splat::run_finished(latent_dir)) return;
-    if (latent_fresh) return;
-    const bool resume = resumable("latent", latent_dir);
-    log_info(std::string("== latent field") + (resume ? " (resuming)" : ""));
+  // The latent field's training options, shared by the latent row and the feature-gs baseline.
+  auto latent_field_options = [&](const std::string& out, bool resume) {
     LatentTrainOptions l;
     l.scene = o.scene;
-    l.out = latent_dir;
+    l.out = out;
     l.images = o.images;
     l.downscale = o.downscale;
     l.test_every = o.test_every;
@@ -187,7 +181,17 @@ nlohmann::json run_compare(const CompareOptions& o) {
     l.seed = o.seed;
     l.resume = resume;
     l.force = !resume;
-    train_latent_field(l);
+    return l;
+  };
+  // The latent field: the latent row, and what latent-refined starts from.
+  const std::string latent_dir = (fs::path(o.out) / "latent").string();
+  bool latent_fresh = false;  // trained by this call (then a refined field made from an older one is stale)
+  auto ensure_latent_field = [&] {
+    if (!o.force && splat::run_finished(latent_dir)) return;
+    if (latent_fresh) return;
+    const bool resume = resumable("latent", latent_dir);
+    log_info(std::string("== latent field") + (resume ? " (resuming)" : ""));
+    train_latent_field(latent_field_options(latent_dir, resume));
     latent_fresh = true;
   };
   nlohmann::json all = nlohmann::json::object();
@@ -252,23 +256,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
     } else if (method == "feature-gs") {
       if (o.force || !splat::run_finished(dir)) {
         // The latent field's training, with a feature field in place of latent features.
-        LatentTrainOptions l;
-        l.scene = o.scene;
-        l.out = dir;
-        l.images = o.images;
-        l.downscale = o.downscale;
-        l.test_every = o.test_every;
-        l.train_views = o.train_views;
-        l.autoencoder = o.autoencoder;
-        l.encoder = o.encoder;
-        l.cache_dir = o.cache_dir;
-        l.sh_degree = o.latent_sh_degree;
-        l.init_points = o.init_points;
-        l.iters = o.latent_iters > 0 ? o.latent_iters : o.iters;
-        l.seed = o.seed;
+        LatentTrainOptions l = latent_field_options(dir, resume);
         l.feature_dim = feature_dim;
-        l.resume = resume;
-        l.force = !resume;
         train_latent_field(l);
       }
       LatentEvalOptions le;
