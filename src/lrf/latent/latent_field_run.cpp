@@ -2,21 +2,14 @@
 
 #include <torch/torch.h>
 
-#include "lrf/autoencoder/image_tensor.h"
-#include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
-#include "lrf/core/image_io.h"
-#include "lrf/core/log.h"
-#include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
-#include "lrf/core/state_dict.h"
 #include "lrf/eval/lpips.h"
-#include "lrf/eval/metrics.h"
-#include "lrf/eval/scores.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_config.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_scoring.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/ply_io.h"
 
@@ -86,70 +79,23 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
   const std::string decoder = o.decoder.empty() ? run.decoder : o.decoder;
   auto ae = load_autoencoder(run.autoencoder, run.encoder, decoder);
-  std::optional<Lpips> lpips;
-  std::string lpips_reason = "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
-  if (!o.lpips_weights.empty()) lpips = Lpips::from_state_dict(tensor_map(load_state_dict(o.lpips_weights)), o.lpips_weights);
-  // The encoded test views: the round-trip ceiling and the latent-space reference.
-  auto encoded = encode_views_cached(run.scene, run.scene.test_indices, *ae,
-                                     autoencoder_identity(run.autoencoder, run.encoder), default_cache_dir());
+  std::optional<Lpips> lpips = load_lpips_if_given(o.lpips_weights);
   const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
-  const std::string image_dir = (fs::path(result_dir) / "eval").string();
   fs::create_directories(result_dir);
-  if (o.write_images) fs::create_directories(image_dir);
 
-  torch::NoGradGuard no_grad;
-  std::vector<ImageScores> scores;
-  nlohmann::json views = nlohmann::json::array();
-  double roundtrip_sum = 0, latent_psnr_sum = 0, render_seconds = 0, decode_seconds = 0;
-  Progress progress("eval", static_cast<long>(run.scene.test_indices.size()));
-  for (size_t k = 0; k < run.scene.test_indices.size(); ++k) {
-    const int i = run.scene.test_indices[k];
-    const View& v = run.scene.views[static_cast<size_t>(i)];
-    auto t0 = std::chrono::steady_clock::now();
-    auto zn = render_latent(run, i);
-    auto t1 = std::chrono::steady_clock::now();
-    auto image = decode_normalised(*ae, run.range, zn);
-    auto t2 = std::chrono::steady_clock::now();
-    render_seconds += std::chrono::duration<double>(t1 - t0).count();
-    decode_seconds += std::chrono::duration<double>(t2 - t1).count();
-    cv::Mat truth = run.scene.load_image(i);
-    cv::Mat decoded = tensor_to_image(image);
-    ImageScores s = score_image(truth, decoded, lpips ? &*lpips : nullptr, v.name);
-    scores.push_back(s);
-    auto roundtrip = ae->decode(encoded.latents[k].unsqueeze(0)).squeeze(0);
-    const double rt = psnr(roundtrip, image_to_chw(truth));
-    const double lp = psnr(zn.clamp(0, 1), run.range.normalize(encoded.latents[k]).clamp(0, 1));
-    roundtrip_sum += rt;
-    latent_psnr_sum += lp;
-    auto j = scores_json(s);
-    j["name"] = v.name;
-    j["roundtrip_psnr"] = rt;
-    j["latent_psnr"] = lp;
-    views.push_back(j);
-    if (o.write_images) write_image_rgb((fs::path(image_dir) / (fs::path(v.name).stem().string() + ".png")).string(), decoded);
-    progress.update(static_cast<long>(k + 1), {{"psnr", s.psnr}});
-  }
-  const double n = double(scores.size());
-  ImageScores mean = mean_scores(scores);
-  nlohmann::json metrics = scores_json(mean);
-  if (!lpips) metrics["lpips_reason"] = lpips_reason;
-  metrics["views"] = views;
-  metrics["roundtrip_psnr"] = roundtrip_sum / n;
-  metrics["latent_psnr"] = latent_psnr_sum / n;
-  metrics["resolution"] = {run.scene.views[0].camera.width, run.scene.views[0].camera.height};
-  metrics["latent_resolution"] = {run.scene.views[0].camera.width / 8, run.scene.views[0].camera.height / 8};
+  LatentScoring scoring;
+  scoring.scene = &run.scene;
+  scoring.range = &run.range;
+  scoring.autoencoder = ae.get();
+  scoring.autoencoder_identity = autoencoder_identity(run.autoencoder, run.encoder);
+  scoring.lpips = lpips ? &*lpips : nullptr;
+  scoring.image_dir = o.write_images ? (fs::path(result_dir) / "eval").string() : "";
+  scoring.render = [&](int view) { return render_latent(run, view); };
+  nlohmann::json metrics = score_latent_test_views(scoring);
+  if (!lpips) metrics["lpips_reason"] = kNoLpipsReason;
   metrics["gaussians"] = run.field.size();
-  metrics["render_fps"] = n / std::max(render_seconds, 1e-9);
-  metrics["decode_fps"] = n / std::max(decode_seconds, 1e-9);
   metrics["decoder"] = decoder.empty() ? "stock" : decoder;
-  if (run.config.contains("result") && run.config["result"].is_object()) {
-    const auto& result = run.config["result"];
-    auto number = [&](const char* key) {
-      return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
-    };
-    metrics["train_seconds"] = number("seconds");
-    metrics["peak_memory_mb"] = number("peak_memory_mb");
-  }
+  add_training_cost(metrics, run.config);
   std::error_code ec;
   const std::string field_file = (fs::path(out) / "point_cloud.ply").string();
   double storage = double(fs::file_size(field_file, ec));
@@ -163,7 +109,6 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
   metrics["field_stamp"] = file_stamp(field_file);
   metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
   write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
-  progress.finish({{"psnr", mean.psnr}, {"ssim", mean.ssim}});
   return metrics;
 }
 

@@ -10,6 +10,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/progress.h"
+#include "lrf/core/state_dict.h"
 #include "lrf/eval/metrics.h"
 #include "lrf/eval/scores.h"
 #include "lrf/latent/latent_cache.h"
@@ -71,6 +72,27 @@ nlohmann::json score_latent_test_views(const LatentScoring& in) {
   metrics["decode_fps"] = n / std::max(decode_seconds, 1e-9);
   progress.finish({{"psnr", mean.psnr}, {"ssim", mean.ssim}});
   return metrics;
+}
+
+std::optional<Lpips> load_lpips_if_given(const std::string& weights) {
+  if (weights.empty()) return std::nullopt;
+  return Lpips::from_state_dict(tensor_map(load_state_dict(weights)), weights);
+}
+
+const char* const kNoLpipsReason =
+    "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
+
+void add_training_cost(nlohmann::json& metrics, const nlohmann::json& config) {
+  const nlohmann::json none = nlohmann::json::object();
+  const nlohmann::json& result =
+      config.contains("result") && config["result"].is_object() ? config["result"] : none;
+  auto number = [&](const char* key) {
+    return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
+  };
+  if (!result.empty()) {
+    metrics["train_seconds"] = number("seconds");
+    metrics["peak_memory_mb"] = number("peak_memory_mb");
+  }
 }
 
 }  // namespace lrf

@@ -4,6 +4,7 @@
 // when weights are given), beside the autoencoder's own round trip of that view (the ceiling) and the
 // latent-space PSNR against the encoded view. What the field is and how it renders is the caller's.
 #include <functional>
+#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -30,5 +31,15 @@ struct LatentScoring {
 // Per-view and mean scores: {psnr, ssim, ms_ssim, flip, lpips, views: [...], roundtrip_psnr, latent_psnr,
 // resolution, latent_resolution, render_fps, decode_fps}.
 nlohmann::json score_latent_test_views(const LatentScoring& scoring);
+
+// LPIPS from the weights at `weights`, or none when the path is empty.
+std::optional<Lpips> load_lpips_if_given(const std::string& weights);
+
+// Why a metrics record without LPIPS has none.
+extern const char* const kNoLpipsReason;
+
+// The training time and peak memory that a run's config.json records under "result", copied into metrics
+// (0 where the run did not record them) for the efficiency table.
+void add_training_cost(nlohmann::json& metrics, const nlohmann::json& config);
 
 }  // namespace lrf

@@ -6,10 +6,8 @@
 
 #include <torch/torch.h>
 
-#include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
-#include "lrf/core/state_dict.h"
 #include "lrf/eval/lpips.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
@@ -80,9 +78,7 @@ nlohmann::json evaluate_nerf_run(const std::string& out, const LatentEvalOptions
   const NerfRun run = open_nerf_run(out);
   if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
   auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder);
-  std::optional<Lpips> lpips;
-  if (!o.lpips_weights.empty())
-    lpips = Lpips::from_state_dict(tensor_map(load_state_dict(o.lpips_weights)), o.lpips_weights);
+  std::optional<Lpips> lpips = load_lpips_if_given(o.lpips_weights);
   const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
   fs::create_directories(result_dir);
 
@@ -95,17 +91,10 @@ nlohmann::json evaluate_nerf_run(const std::string& out, const LatentEvalOptions
   scoring.image_dir = o.write_images ? (fs::path(result_dir) / "eval").string() : "";
   scoring.render = [&](int view) { return render_nerf_latent(run, view); };
   nlohmann::json metrics = score_latent_test_views(scoring);
-  if (!lpips) metrics["lpips_reason"] = "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
+  if (!lpips) metrics["lpips_reason"] = kNoLpipsReason;
   metrics["decoder"] = o.decoder.empty() ? "stock" : o.decoder;
   metrics["parameters"] = run.field.parameter_count();
-  if (run.config.contains("result") && run.config["result"].is_object()) {
-    const auto& result = run.config["result"];
-    auto number = [&](const char* key) {
-      return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
-    };
-    metrics["train_seconds"] = number("seconds");
-    metrics["peak_memory_mb"] = number("peak_memory_mb");
-  }
+  add_training_cost(metrics, run.config);
   const std::string field_file = nerf_field_path(out);
   std::error_code ec;
   metrics["storage_mb"] = double(fs::file_size(field_file, ec)) / (1 << 20);
