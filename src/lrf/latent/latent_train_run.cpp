@@ -9,7 +9,7 @@
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
 #include "lrf/feature/feature_training.h"
-#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/splat/run/run_folder.h"
@@ -43,27 +43,14 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
     fail("--init rgb chooses latent features; a feature field (--feature-dim) starts from constant features");
   const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
 
-  SceneOptions so;
-  so.images_dir = o.images;
-  so.downscale = o.downscale;
-  so.test_every = o.test_every;
-  so.train_views = o.train_views;
-  so.crop_to_multiple_of_8 = true;
-  Scene scene = load_scene(o.scene, so);
-  auto ae = load_autoencoder(o.autoencoder, o.encoder);
-  const std::string ae_id = autoencoder_identity(o.autoencoder, o.encoder);
-  log_info("scene " + o.scene + ": " + std::to_string(scene.train_indices.size()) + " training views at " +
-           std::to_string(scene.views[0].camera.width) + "x" + std::to_string(scene.views[0].camera.height) +
-           " -> latents " + std::to_string(ae->latent_channels()) + "x" +
-           std::to_string(scene.views[0].camera.height / 8) + "x" + std::to_string(scene.views[0].camera.width / 8) +
-           " (" + ae->description() + ")");
-
-  Stopwatch encode_clock;
-  auto cached = encode_views_cached(scene, scene.train_indices, *ae, ae_id,
-                                    o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
-  const double encode_seconds = encode_clock.seconds();
-  log_info(std::string("training latents ") + (cached.hit ? "read from " : "encoded, cached in ") + cached.path);
-  LatentTrainingData data = prepare_latent_training(scene, cached.latents, init, o.sh_degree, o.seed,
+  EncodedScene encoded = load_encoded_scene({o.scene, o.images, o.downscale, o.test_every, o.train_views,
+                                             o.autoencoder, o.encoder, o.cache_dir});
+  const SceneOptions& so = encoded.options;
+  const Scene& scene = encoded.scene;
+  auto& ae = encoded.autoencoder;
+  const std::string& ae_id = encoded.autoencoder_identity;
+  const double encode_seconds = encoded.encode_seconds;
+  LatentTrainingData data = prepare_latent_training(scene, encoded.latents, init, o.sh_degree, o.seed,
                                                     o.init_points, o.rgb_guide);
   const int channels = ae->latent_channels();
   const int feature_dim = o.feature_dim == kHalfLatentChannels ? default_feature_dim(channels) : o.feature_dim;

@@ -13,7 +13,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
-#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
@@ -91,35 +91,21 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   const auto lock = prepare_nerf_output(o);
   reset_peak_memory();  // this job's own peak, when another ran before it in this process (lrf compare)
 
-  SceneOptions so;
-  so.images_dir = o.images;
-  so.downscale = o.downscale;
-  so.test_every = o.test_every;
-  so.train_views = o.train_views;
-  so.crop_to_multiple_of_8 = true;
-  Scene scene = load_scene(o.scene, so);
-  if (scene.train_indices.empty()) fail(o.scene, "no training views");
-  auto ae = load_autoencoder(o.autoencoder, o.encoder);
-  const std::string ae_id = autoencoder_identity(o.autoencoder, o.encoder);
-  const Camera& c0 = scene.views[0].camera;
-  log_info("scene " + o.scene + ": " + std::to_string(scene.train_indices.size()) + " training views at " +
-           std::to_string(c0.width) + "x" + std::to_string(c0.height) + " -> " + std::to_string(c0.width / 8) + "x" +
-           std::to_string(c0.height / 8) + " rays per view, latents of " + std::to_string(ae->latent_channels()) +
-           " channels (" + ae->description() + ")");
-
-  Stopwatch encode_clock;
-  auto cached = encode_views_cached(scene, scene.train_indices, *ae, ae_id,
-                                    o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
-  const double encode_seconds = encode_clock.seconds();
-  log_info(std::string("training latents ") + (cached.hit ? "read from " : "encoded, cached in ") + cached.path);
-  const LatentRange range = compute_latent_range(cached.latents);
+  EncodedScene encoded = load_encoded_scene({o.scene, o.images, o.downscale, o.test_every, o.train_views,
+                                             o.autoencoder, o.encoder, o.cache_dir});
+  const SceneOptions& so = encoded.options;
+  const Scene& scene = encoded.scene;
+  auto& ae = encoded.autoencoder;
+  const std::string& ae_id = encoded.autoencoder_identity;
+  const double encode_seconds = encoded.encode_seconds;
+  const LatentRange range = compute_latent_range(encoded.latents);
   std::vector<Camera> image_cameras, latent_cameras;
   std::vector<at::Tensor> targets;
   for (size_t k = 0; k < scene.train_indices.size(); ++k) {
     const Camera& cam = scene.views[static_cast<size_t>(scene.train_indices[k])].camera;
     image_cameras.push_back(cam);
     latent_cameras.push_back(latent_camera(cam));
-    targets.push_back(range.normalize(cached.latents[k]));
+    targets.push_back(range.normalize(encoded.latents[k]));
   }
 
   const std::string config_path = (fs::path(o.out) / "config.json").string();

@@ -1,0 +1,39 @@
+#pragma once
+// How every fit to a scene's latents begins (a latent Gaussian field, a latent NeRF): the scene at a
+// resolution the autoencoder divides (centre-cropped to multiples of 8), the autoencoder, and the
+// training views encoded once, through the latent cache.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <torch/types.h>
+
+#include "lrf/autoencoder/autoencoder.h"
+#include "lrf/scene/scene.h"
+
+namespace lrf {
+
+struct EncodedSceneRequest {
+  std::string scene;        // folder
+  std::string images;       // image folder inside it ("" = the format's default)
+  int downscale = 1;
+  int test_every = 8;
+  int train_views = 0;      // few-shot K (0 = every non-test view)
+  std::string autoencoder;  // name or path
+  std::string encoder;      // fine-tuned encoder weights ("" = stock)
+  std::string cache_dir;    // "" = default_cache_dir()
+};
+
+struct EncodedScene {
+  SceneOptions options;  // as the scene was loaded (recorded in run configs)
+  Scene scene;
+  std::unique_ptr<Autoencoder> autoencoder;
+  std::string autoencoder_identity;
+  std::vector<torch::Tensor> latents;  // raw [C, H/8, W/8], one per training view, in train_indices order
+  double encode_seconds = 0;           // 0-ish when the cache already held them
+};
+
+// Fails naming the scene when it has no training views.
+EncodedScene load_encoded_scene(const EncodedSceneRequest& request);
+
+}  // namespace lrf
