@@ -10,6 +10,7 @@
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/latent/latent_scoring.h"
+#include "lrf/latent/trained_run_checks.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/ply_io.h"
 
@@ -36,23 +37,13 @@ LatentRun open_latent_run(const std::string& out) {
   run.render.mip = false;
   run.render.background = torch::tensor(c.field.background);
   run.range = c.range;
-  // The field only makes sense with the latent space it was fitted in.
-  const std::string now = autoencoder_identity(run.autoencoder, run.encoder);
-  if (now != c.identity) {
-    fail(config_path, "the autoencoder's files changed since training (was " + c.identity + ", now " + now +
-                          "): retrain, or restore the weights");
-  }
+  check_autoencoder_unchanged(run.autoencoder, run.encoder, c.identity, config_path);
   run.decoder = c.decoder;
   if (!run.decoder.empty() && weights_file_identity(run.decoder) != c.decoder_identity) {
     fail(config_path, "the decoder the field was refined through changed since (" + run.decoder + "): refine again, "
                       "or restore the weights");
   }
-  run.scene = load_scene(c.field.scene_root, c.field.scene);
-  if (run.scene.views.empty()) fail(config_path, "the scene has no views");
-  const auto& res = c.resolution;
-  if (res.size() == 2 && (res[0] != run.scene.views[0].camera.width || res[1] != run.scene.views[0].camera.height)) {
-    fail(config_path, "the scene's images changed resolution since training");
-  }
+  run.scene = reload_trained_scene(c.field.scene_root, c.field.scene, c.resolution, config_path);
   const std::string ply = (fs::path(out) / "point_cloud.ply").string();
   if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
   if (c.feature_dim > 0) {

@@ -12,6 +12,7 @@
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_scoring.h"
+#include "lrf/latent/trained_run_checks.h"
 #include "lrf/nerf/nerf_render.h"
 #include "lrf/splat/run/run_config.h"
 
@@ -52,15 +53,9 @@ NerfRun open_nerf_run(const std::string& out) {
   } catch (const nlohmann::json::exception& e) {
     fail(config_path, std::string("missing or bad latent NeRF settings: ") + e.what());
   }
-  const std::string now = autoencoder_identity(run.autoencoder, run.encoder);
-  if (now != identity)
-    fail(config_path, "the autoencoder's files changed since training (was " + identity + ", now " + now +
-                          "): retrain, or restore the weights");
-  run.scene = load_scene(scene_root, splat::scene_options_from_config(run.config, config_path));
-  if (run.scene.views.empty()) fail(config_path, "the scene has no views");
-  const Camera& c0 = run.scene.views[0].camera;
-  if (resolution.size() != 2 || resolution[0] != c0.width || resolution[1] != c0.height)
-    fail(config_path, "the scene's images changed resolution since training");
+  check_autoencoder_unchanged(run.autoencoder, run.encoder, identity, config_path);
+  run.scene = reload_trained_scene(scene_root, splat::scene_options_from_config(run.config, config_path), resolution,
+                                   config_path);
   const std::string field = nerf_field_path(out);
   if (!fs::exists(field)) fail(field, "not found: the run has not reached its first checkpoint (resume it with lrf train --resume)");
   run.field = NerfField::load(field);
