@@ -22,7 +22,7 @@ TEST(CliLatent, TrainRenderEval) {
   auto config = lrf::read_json_file(out + "/config.json");
   EXPECT_EQ(config["space"], "latent");
   EXPECT_EQ(config["latent_channels"], 32);
-  EXPECT_EQ(config["sh_degree"], 0);
+  EXPECT_EQ(config["sh_degree"], 1);  // the latent default
   EXPECT_EQ(config["latent_range"]["min"].size(), 32u);
 
   // A second run into the same folder is refused without --force or --resume.
@@ -61,7 +61,7 @@ TEST(CliLatent, TrainRenderEval) {
   ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
   config = lrf::read_json_file(out + "/config.json");
   EXPECT_EQ(config["space"], "latent");
-  EXPECT_EQ(config["sh_degree"], 0);
+  EXPECT_EQ(config["sh_degree"], 1);  // the latent default
   EXPECT_EQ(config["result"]["steps"], 80);
 }
 

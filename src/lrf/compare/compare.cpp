@@ -258,6 +258,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
         // The latent field's training, with a feature field in place of latent features.
         LatentTrainOptions l = latent_field_options(dir, resume);
         l.feature_dim = feature_dim;
+        l.sh_degree = 0;  // Feature 3DGS's features are view-independent
         train_latent_field(l);
       }
       LatentEvalOptions le;

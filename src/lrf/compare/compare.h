@@ -18,7 +18,8 @@ namespace lrf {
 
 struct CompareOptions {
   std::string scene, out, images, autoencoder = "taef2", encoder, decoder, lpips_weights, cache_dir;
-  int downscale = 1, test_every = 8, latent_sh_degree = 0;
+  int downscale = 1, test_every = 8;
+  int latent_sh_degree = 1;  // kDefaultLatentShDegree (latent/latent_run.h)
   int train_views = 0;  // few-shot: K evenly spaced training views for every method (0 = all)
   int64_t iters = 7000, latent_iters = 0;  // latent_iters 0 = iters
   int64_t nerf_iters = 0;  // latent-nerf steps (0 = nerf::kDefaultNerfIters; --iters counts Gaussian steps)
