@@ -4,7 +4,6 @@
 
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
-#include "lrf/eval/lpips.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_config.h"
 #include "lrf/latent/latent_field.h"
@@ -67,26 +66,10 @@ torch::Tensor render_latent(const LatentRun& run, int view) {
 
 nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptions& o) {
   LatentRun run = open_latent_run(out);
-  if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
   const std::string decoder = o.decoder.empty() ? run.decoder : o.decoder;
-  auto ae = load_autoencoder(run.autoencoder, run.encoder, decoder);
-  std::optional<Lpips> lpips = load_lpips_if_given(o.lpips_weights);
-  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
-  fs::create_directories(result_dir);
-
-  LatentScoring scoring;
-  scoring.scene = &run.scene;
-  scoring.range = &run.range;
-  scoring.autoencoder = ae.get();
-  scoring.autoencoder_identity = autoencoder_identity(run.autoencoder, run.encoder);
-  scoring.lpips = lpips ? &*lpips : nullptr;
-  scoring.image_dir = o.write_images ? (fs::path(result_dir) / "eval").string() : "";
-  scoring.render = [&](int view) { return render_latent(run, view); };
-  nlohmann::json metrics = score_latent_test_views(scoring);
-  if (!lpips) metrics["lpips_reason"] = kNoLpipsReason;
+  nlohmann::json metrics = score_latent_run(out, run.scene, run.range, run.autoencoder, run.encoder, decoder, o,
+                                            [&](int view) { return render_latent(run, view); });
   metrics["gaussians"] = run.field.size();
-  metrics["decoder"] = decoder.empty() ? "stock" : decoder;
-  add_training_cost(metrics, run.config);
   std::error_code ec;
   const std::string field_file = (fs::path(out) / "point_cloud.ply").string();
   double storage = double(fs::file_size(field_file, ec));
@@ -96,10 +79,7 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
     metrics["feature_dim"] = run.lift.feature_dim();
   }
   metrics["storage_mb"] = storage / (1 << 20);
-  // Which version of the field these scores belong to, so that a reused score can be checked against it.
-  metrics["field_stamp"] = file_stamp(field_file);
-  metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
-  write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
+  write_latent_run_metrics(out, o, run.config, field_file, metrics);
   return metrics;
 }
 

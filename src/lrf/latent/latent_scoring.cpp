@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <optional>
 
 #include <torch/torch.h>
 
@@ -10,11 +11,13 @@
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/progress.h"
+#include "lrf/core/run_info.h"
 #include "lrf/core/state_dict.h"
 #include "lrf/eval/metrics.h"
 #include "lrf/eval/scores.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
+#include "lrf/latent/latent_run.h"
 
 namespace fs = std::filesystem;
 
@@ -74,25 +77,45 @@ nlohmann::json score_latent_test_views(const LatentScoring& in) {
   return metrics;
 }
 
-std::optional<Lpips> load_lpips_if_given(const std::string& weights) {
-  if (weights.empty()) return std::nullopt;
-  return Lpips::from_state_dict(tensor_map(load_state_dict(weights)), weights);
+nlohmann::json score_latent_run(const std::string& out, const Scene& scene, const LatentRange& range,
+                                const std::string& autoencoder, const std::string& encoder,
+                                const std::string& decoder, const LatentEvalOptions& o,
+                                const std::function<torch::Tensor(int view)>& render) {
+  if (scene.test_indices.empty()) fail(out, "the scene has no test views");
+  auto ae = load_autoencoder(autoencoder, encoder, decoder);
+  std::optional<Lpips> lpips;
+  if (!o.lpips_weights.empty())
+    lpips = Lpips::from_state_dict(tensor_map(load_state_dict(o.lpips_weights)), o.lpips_weights);
+  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
+  fs::create_directories(result_dir);
+  LatentScoring scoring;
+  scoring.scene = &scene;
+  scoring.range = &range;
+  scoring.autoencoder = ae.get();
+  scoring.autoencoder_identity = autoencoder_identity(autoencoder, encoder);
+  scoring.lpips = lpips ? &*lpips : nullptr;
+  scoring.image_dir = o.write_images ? (fs::path(result_dir) / "eval").string() : "";
+  scoring.render = render;
+  nlohmann::json metrics = score_latent_test_views(scoring);
+  if (!lpips) metrics["lpips_reason"] = "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
+  metrics["decoder"] = decoder.empty() ? "stock" : decoder;
+  return metrics;
 }
 
-const char* const kNoLpipsReason =
-    "no --lpips-weights given (LPIPS needs the VGG16 + lin weights of lpips v0.1)";
-
-void add_training_cost(nlohmann::json& metrics, const nlohmann::json& config) {
-  const nlohmann::json none = nlohmann::json::object();
-  const nlohmann::json& result =
-      config.contains("result") && config["result"].is_object() ? config["result"] : none;
-  auto number = [&](const char* key) {
-    return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
-  };
-  if (!result.empty()) {
+void write_latent_run_metrics(const std::string& out, const LatentEvalOptions& o, const nlohmann::json& config,
+                              const std::string& field_file, nlohmann::json& metrics) {
+  if (config.contains("result") && config["result"].is_object()) {
+    const auto& result = config["result"];
+    auto number = [&](const char* key) {
+      return result.contains(key) && result[key].is_number() ? result[key].get<double>() : 0.0;
+    };
     metrics["train_seconds"] = number("seconds");
     metrics["peak_memory_mb"] = number("peak_memory_mb");
   }
+  metrics["field_stamp"] = file_stamp(field_file);
+  metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
+  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
+  write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
 }
 
 }  // namespace lrf

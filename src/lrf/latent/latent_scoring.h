@@ -4,7 +4,6 @@
 // when weights are given), beside the autoencoder's own round trip of that view (the ceiling) and the
 // latent-space PSNR against the encoded view. What the field is and how it renders is the caller's.
 #include <functional>
-#include <optional>
 #include <string>
 
 #include <nlohmann/json.hpp>
@@ -32,14 +31,21 @@ struct LatentScoring {
 // resolution, latent_resolution, render_fps, decode_fps}.
 nlohmann::json score_latent_test_views(const LatentScoring& scoring);
 
-// LPIPS from the weights at `weights`, or none when the path is empty.
-std::optional<Lpips> load_lpips_if_given(const std::string& weights);
+struct LatentEvalOptions;  // lrf/latent/latent_run.h
 
-// Why a metrics record without LPIPS has none.
-extern const char* const kNoLpipsReason;
+// What `lrf eval` does alike for every latent run (a Gaussian field, a NeRF): the test views rendered by
+// `render` and decoded through `decoder` ("" = the autoencoder's own), scored as above, with LPIPS when
+// options.lpips_weights is given. Creates the result folder (options.output_dir, default `out`) and
+// returns the scores with "decoder" (and "lpips_reason" without LPIPS); writes nothing yet.
+nlohmann::json score_latent_run(const std::string& out, const Scene& scene, const LatentRange& range,
+                                const std::string& autoencoder, const std::string& encoder,
+                                const std::string& decoder, const LatentEvalOptions& options,
+                                const std::function<torch::Tensor(int view)>& render);
 
-// The training time and peak memory that a run's config.json records under "result", copied into metrics
-// (0 where the run did not record them) for the efficiency table.
-void add_training_cost(nlohmann::json& metrics, const nlohmann::json& config);
+// Completes and writes metrics.json into the result folder: the training time and peak memory that the
+// run's config records under "result", the stamp of `field_file` (which version of the field the scores
+// belong to, so that a reused score can be checked against it) and how the scores were made.
+void write_latent_run_metrics(const std::string& out, const LatentEvalOptions& options, const nlohmann::json& config,
+                              const std::string& field_file, nlohmann::json& metrics);
 
 }  // namespace lrf

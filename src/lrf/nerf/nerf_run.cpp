@@ -2,14 +2,11 @@
 #include "lrf/nerf/nerf_run.h"
 
 #include <filesystem>
-#include <optional>
 
 #include <torch/torch.h>
 
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
-#include "lrf/eval/lpips.h"
-#include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_scoring.h"
 #include "lrf/latent/trained_run_checks.h"
@@ -71,31 +68,13 @@ torch::Tensor render_nerf_latent(const NerfRun& run, int view) {
 
 nlohmann::json evaluate_nerf_run(const std::string& out, const LatentEvalOptions& o) {
   const NerfRun run = open_nerf_run(out);
-  if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
-  auto ae = load_autoencoder(run.autoencoder, run.encoder, o.decoder);
-  std::optional<Lpips> lpips = load_lpips_if_given(o.lpips_weights);
-  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
-  fs::create_directories(result_dir);
-
-  LatentScoring scoring;
-  scoring.scene = &run.scene;
-  scoring.range = &run.range;
-  scoring.autoencoder = ae.get();
-  scoring.autoencoder_identity = autoencoder_identity(run.autoencoder, run.encoder);
-  scoring.lpips = lpips ? &*lpips : nullptr;
-  scoring.image_dir = o.write_images ? (fs::path(result_dir) / "eval").string() : "";
-  scoring.render = [&](int view) { return render_nerf_latent(run, view); };
-  nlohmann::json metrics = score_latent_test_views(scoring);
-  if (!lpips) metrics["lpips_reason"] = kNoLpipsReason;
-  metrics["decoder"] = o.decoder.empty() ? "stock" : o.decoder;
+  nlohmann::json metrics = score_latent_run(out, run.scene, run.range, run.autoencoder, run.encoder, o.decoder, o,
+                                            [&](int view) { return render_nerf_latent(run, view); });
   metrics["parameters"] = run.field.parameter_count();
-  add_training_cost(metrics, run.config);
   const std::string field_file = nerf_field_path(out);
   std::error_code ec;
   metrics["storage_mb"] = double(fs::file_size(field_file, ec)) / (1 << 20);
-  metrics["field_stamp"] = file_stamp(field_file);
-  metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
-  write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
+  write_latent_run_metrics(out, o, run.config, field_file, metrics);
   return metrics;
 }
 

@@ -93,11 +93,8 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
 
   EncodedScene encoded = load_encoded_scene({o.scene, o.images, o.downscale, o.test_every, o.train_views,
                                              o.autoencoder, o.encoder, o.cache_dir});
-  const SceneOptions& so = encoded.options;
   const Scene& scene = encoded.scene;
   auto& ae = encoded.autoencoder;
-  const std::string& ae_id = encoded.autoencoder_identity;
-  const double encode_seconds = encoded.encode_seconds;
   const LatentRange range = compute_latent_range(encoded.latents);
   std::vector<Camera> image_cameras, latent_cameras;
   std::vector<at::Tensor> targets;
@@ -145,12 +142,12 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   NerfField field = NerfField::create(spec, o.seed);
 
   auto config = run_record(options_json(o));
-  config.update(splat::scene_config(o.scene, so, scene));
+  config.update(splat::scene_config(o.scene, encoded.options, scene));
   config["space"] = "latent-nerf";
   config["background"] = spec.background;
   config["autoencoder"] = o.autoencoder;
   config["encoder"] = o.encoder;
-  config["autoencoder_identity"] = ae_id;
+  config["autoencoder_identity"] = encoded.autoencoder_identity;
   config["latent_channels"] = spec.channels;
   config["latent_range"] = range.to_json();
   config["nerf"] = spec.to_json();
@@ -212,10 +209,10 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   result.steps = trainer.steps_done();
   result.parameters = trainer.field().parameter_count();
   result.seconds = elapsed_before + progress.elapsed_seconds();
-  result.encode_seconds = encode_seconds;
+  result.encode_seconds = encoded.encode_seconds;
   result.final_loss = last_loss;
   config["result"] = {{"steps", result.steps},          {"seconds", result.seconds},
-                      {"encode_seconds", encode_seconds}, {"final_loss", last_loss},
+                      {"encode_seconds", encoded.encode_seconds}, {"final_loss", last_loss},
                       {"parameters", result.parameters},  {"peak_memory_mb", peak_memory_mb()}};
   write_json_file(config_path, config);
   log_info("wrote " + field_path + ": " + std::to_string(result.parameters) + " parameters after " +
