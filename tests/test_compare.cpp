@@ -107,6 +107,12 @@ TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
   const std::string msg = lrf::test::error_of([&] { lrf::run_compare(all_views); });
   EXPECT_NE(msg.find("this folder holds methods made with other settings"), std::string::npos) << msg;
   EXPECT_NE(msg.find("train_views (3 vs 0)"), std::string::npos) << msg;
+  // The latent field's SH degree is checked on the field itself (the RGB rows do not depend on it).
+  lrf::CompareOptions sh0 = o;
+  sh0.latent_sh_degree = 0;
+  const std::string sh_msg = lrf::test::error_of([&] { lrf::run_compare(sh0); });
+  EXPECT_NE(sh_msg.find("this field has SH degree 1, this run asks for --latent-sh-degree 0"), std::string::npos)
+      << sh_msg;
 }
 
 }  // namespace

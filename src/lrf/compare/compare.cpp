@@ -82,6 +82,19 @@ void require_same_feature_dim(const std::string& dir, int wanted) {
                    describe(wanted) + "; use another output folder, or --force");
 }
 
+// The latent field, and the refined field made from it, are reused or resumed only at the SH degree asked
+// for now: the degree is not in compare.json's settings (the RGB rows do not depend on it), and the default
+// changed from 0 to 1, so an older folder's latent rows would otherwise pass for the new default's.
+void require_same_latent_sh_degree(const std::string& dir, int wanted) {
+  const std::string config = (fs::path(dir) / "config.json").string();
+  if (!fs::exists(config)) return;
+  const nlohmann::json recorded = read_json_file(config).value("sh_degree", nlohmann::json());
+  if (recorded == wanted) return;
+  fail(config, "this field has SH degree " + (recorded.is_number_integer() ? recorded.dump() : "unknown") +
+                   ", this run asks for --latent-sh-degree " + std::to_string(wanted) +
+                   "; use another output folder, or --force");
+}
+
 // What a method's field is fitted to: the paper's efficiency table compares methods by the size of what
 // they optimise against as well as by time and memory.
 std::string fitted_to(const std::string& method, const std::string& dir, const Camera& camera) {
@@ -200,6 +213,10 @@ nlohmann::json run_compare(const CompareOptions& o) {
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
     const int feature_dim = o.feature_dim > 0 ? o.feature_dim : kHalfLatentChannels;
     if (method == "feature-gs" && !o.force) require_same_feature_dim(dir, feature_dim);
+    if ((method == "latent" || method == "latent-refined") && !o.force) {
+      require_same_latent_sh_degree(latent_dir, o.latent_sh_degree);
+      require_same_latent_sh_degree(dir, o.latent_sh_degree);
+    }
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
     if (!o.force && fs::exists(metrics_path) && finished(method, dir)) {
       log_info(method + ": reusing " + metrics_path + " (pass --force to recompute)");

@@ -77,16 +77,24 @@ nlohmann::json score_latent_test_views(const LatentScoring& in) {
   return metrics;
 }
 
+namespace {
+
+// Where a run's scores (and its eval/ images) go: the run folder unless --output names another.
+std::string result_dir_of(const std::string& out, const LatentEvalOptions& o) {
+  return o.output_dir.empty() ? out : o.output_dir;
+}
+
+}  // namespace
+
 nlohmann::json score_latent_run(const std::string& out, const Scene& scene, const LatentRange& range,
                                 const std::string& autoencoder, const std::string& encoder,
                                 const std::string& decoder, const LatentEvalOptions& o,
                                 const std::function<torch::Tensor(int view)>& render) {
-  if (scene.test_indices.empty()) fail(out, "the scene has no test views");
   auto ae = load_autoencoder(autoencoder, encoder, decoder);
   std::optional<Lpips> lpips;
   if (!o.lpips_weights.empty())
     lpips = Lpips::from_state_dict(tensor_map(load_state_dict(o.lpips_weights)), o.lpips_weights);
-  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
+  const std::string result_dir = result_dir_of(out, o);
   fs::create_directories(result_dir);
   LatentScoring scoring;
   scoring.scene = &scene;
@@ -114,8 +122,7 @@ void write_latent_run_metrics(const std::string& out, const LatentEvalOptions& o
   }
   metrics["field_stamp"] = file_stamp(field_file);
   metrics["run"] = run_record({{"out", out}, {"decoder", o.decoder}, {"lpips_weights", o.lpips_weights}});
-  const std::string result_dir = o.output_dir.empty() ? out : o.output_dir;
-  write_json_file((fs::path(result_dir) / "metrics.json").string(), metrics);
+  write_json_file((fs::path(result_dir_of(out, o)) / "metrics.json").string(), metrics);
 }
 
 }  // namespace lrf
