@@ -29,7 +29,8 @@ std::string weights_file_identity(const std::string& path) { return content_stam
 LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>& indices, Autoencoder& ae,
                                       const std::string& ae_identity, const std::string& cache_dir) {
   std::ostringstream key;
-  key << "lrf-latents-v1;scene=" << fs::absolute(scene.root).lexically_normal().string() << ";ae=" << ae_identity
+  // v2: images are undistorted with a Lanczos kernel at the file's resolution (v1: bilinearly, after the resize).
+  key << "lrf-latents-v2;scene=" << fs::absolute(scene.root).lexically_normal().string() << ";ae=" << ae_identity
       << ";precision=" << precision_name(ae.precision());  // bf16 encodes differ from fp32 ones by rounding
   for (int i : indices) {
     const View& v = scene.views.at(static_cast<size_t>(i));

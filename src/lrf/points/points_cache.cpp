@@ -70,7 +70,8 @@ CachedTriangulation read_entry(const std::string& json_path, const std::string& 
 std::string triangulation_cache_key(const Scene& scene, const TriangulationOptions& o) {
   std::ostringstream key;
   key.precision(17);
-  key << "lrf-points-v1;scene=" << fs::absolute(scene.root).lexically_normal().string();
+  // v2: the images SIFT sees are undistorted with a Lanczos kernel at the file's resolution (v1: bilinearly).
+  key << "lrf-points-v2;scene=" << fs::absolute(scene.root).lexically_normal().string();
   key << ";matches=" << (o.database.empty() ? std::string("sift") : file_stamp(o.database));
   const MatchOptions& m = o.match;
   key << ";train_only=" << o.training_views_only << ";neighbours=" << o.neighbours << ";min_inliers=" << m.min_inliers

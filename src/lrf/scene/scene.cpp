@@ -17,8 +17,14 @@ cv::Mat Scene::load_image(int i) const {
                            std::to_string(v.file_width) + "x" + std::to_string(v.file_height) +
                            " (images of mixed sizes, or not matching the camera model)");
   }
+  return view_image_from_file(img, v);
+}
+
+cv::Mat view_image_from_file(cv::Mat img, const View& v) {
+  // Undistort before the area resize: the remap interpolates between pixels, and on the file's finer grid
+  // the resize then averages most of that interpolation's blur away.
+  if (v.distortion.any()) img = undistort_image(img, v.distorted_camera.resized(img.cols, img.rows), v.distortion);
   img = resize_area(img, v.resize_width, v.resize_height);
-  if (v.distortion.any()) img = undistort_image(img, v.distorted_camera, v.distortion);
   if (v.crop_x || v.crop_y || v.camera.width != img.cols || v.camera.height != img.rows) {
     img = img(cv::Rect(v.crop_x, v.crop_y, v.camera.width, v.camera.height)).clone();
   }

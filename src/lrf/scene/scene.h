@@ -75,6 +75,10 @@ class Scene {
   Eigen::Vector3d camera_mean() const;
 };
 
+// What Scene::load_image does after decoding: `decoded` (the view's file, float RGB) undistorted at its own
+// resolution, area-resized and cropped to the view's camera.
+cv::Mat view_image_from_file(cv::Mat decoded, const View& v);
+
 // Maps pixel coordinates of view `v` at its nominal resolution (as COLMAP stores keypoints) to the
 // resolution in use: scaled, undistorted and shifted by the crop, like the view's camera.
 std::vector<Eigen::Vector2d> nominal_to_view_pixels(const View& v, const std::vector<Eigen::Vector2d>& pixels);

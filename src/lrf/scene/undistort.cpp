@@ -38,8 +38,16 @@ cv::Mat undistort_image(const cv::Mat& image, const Camera& cam, const Distortio
   } else {
     cv::initUndistortRectifyMap(K, D, cv::Mat(), K, size, CV_32FC1, map1, map2);
   }
+  // Lanczos (8x8 taps), not bilinear: a bilinear remap at fractional offsets is a low-pass filter, and on
+  // fern at 504x378 it removed ~40 % of the finest detail's energy from every training and test image. The
+  // kernel's overshoot at edges is clipped back to the input's range.
   cv::Mat out;
-  cv::remap(image, out, map1, map2, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(image, out, map1, map2, cv::INTER_LANCZOS4, cv::BORDER_REPLICATE);
+  if (image.depth() == CV_32F) {
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(image.reshape(1), &lo, &hi);
+    out = cv::min(cv::max(out, lo), hi);
+  }
   return out;
 }
 

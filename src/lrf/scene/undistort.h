@@ -9,7 +9,8 @@
 
 namespace lrf {
 
-// Remaps a distorted image (the size of `cam`) so that it follows the pinhole camera `cam`.
+// Remaps a distorted image (the size of `cam`) so that it follows the pinhole camera `cam` (Lanczos,
+// clipped to the input's range).
 cv::Mat undistort_image(const cv::Mat& image, const Camera& cam, const Distortion& d);
 // Maps distorted pixel coordinates to the pinhole camera `cam` with the same intrinsics.
 std::vector<Eigen::Vector2d> undistort_points(const std::vector<Eigen::Vector2d>& pixels, const Camera& cam,
