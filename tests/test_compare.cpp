@@ -113,6 +113,12 @@ TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
   const std::string sh_msg = lrf::test::error_of([&] { lrf::run_compare(sh0); });
   EXPECT_NE(sh_msg.find("this field has SH degree 1, this run asks for --latent-sh-degree 0"), std::string::npos)
       << sh_msg;
+  // A folder from before the images were undistorted with the Lanczos kernel holds fields fitted to other images.
+  nlohmann::json summary = lrf::read_json_file(dir / "cmp/compare.json");
+  summary["settings"].erase("view_images");
+  lrf::write_json_file(dir / "cmp/compare.json", summary);
+  const std::string old_msg = lrf::test::error_of([&] { lrf::run_compare(o); });
+  EXPECT_NE(old_msg.find("view_images (none vs 2)"), std::string::npos) << old_msg;
 }
 
 }  // namespace

@@ -179,4 +179,15 @@ TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {
   EXPECT_FALSE(fs::exists(dir / "run/stage1"));
 }
 
+// A folder whose pipeline.json predates the Lanczos undistortion holds stages fitted to other images.
+TEST(Pipeline, RefusesAFolderMadeFromImagesOfAnotherLoader) {
+  lrf::test::TempDir dir("pipeline_old_images");
+  lrf::PipelineOptions o = tiny_pipeline(dir / "run");
+  fs::create_directories(dir / "run");
+  lrf::write_json_file(dir / "run/pipeline.json", {{"options", {{"field_iters", 60}}}});
+  const std::string msg = error_of([&] { lrf::run_pipeline(o); });
+  EXPECT_NE(msg.find("another version of lrf's image loader (view_images 1 vs 2)"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(dir / "run/stage1"));
+}
+
 }  // namespace

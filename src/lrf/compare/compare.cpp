@@ -24,6 +24,7 @@
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/refine/refine.h"
 #include "lrf/rgb/rgb_baseline.h"
+#include "lrf/scene/scene.h"
 #include "lrf/splat/run/train_run.h"
 
 namespace fs = std::filesystem;
@@ -51,7 +52,8 @@ nlohmann::json compare_settings(const CompareOptions& o) {
           {"latent_iters", o.latent_iters},
           {"seed", o.seed},
           {"init_points", o.init_points.mode},
-          {"far_shell", o.init_points.shell.points}};
+          {"far_shell", o.init_points.shell.points},
+          {"view_images", kViewImagesVersion}};
 }
 
 void require_same_settings(const std::string& summary_path, const nlohmann::json& wanted) {

@@ -17,6 +17,7 @@
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
 #include "lrf/rgb/rgb_baseline.h"
+#include "lrf/scene/scene.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/finetune/decoder_finetune.h"
@@ -405,6 +406,19 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
   return {{"shard", me}, {"done", done}, {"left", left}};
 }
 
+// Every step of a pipeline folder was fitted to the images of the loader that first wrote pipeline.json
+// (records without the entry are from loader 1); steps made from other images are not mixed in.
+void require_same_view_images(const std::string& out) {
+  const std::string record = (fs::path(out) / "pipeline.json").string();
+  if (!fs::exists(record)) return;
+  const int recorded = read_json_file(record).value("options", nlohmann::json::object()).value("view_images", 1);
+  if (recorded != kViewImagesVersion) {
+    fail(record, "this folder's stages were fitted to images made by another version of lrf's image loader "
+                 "(view_images " + std::to_string(recorded) + " vs " + std::to_string(kViewImagesVersion) +
+                 "): use another output folder");
+  }
+}
+
 }  // namespace
 
 nlohmann::json run_pipeline(const PipelineOptions& o) {
@@ -418,6 +432,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       if (!names.insert(scene_name(s)).second) fail(s, "two scenes share the folder name '" + scene_name(s) + "'");
     }
   }
+  require_same_view_images(o.out);
   if (o.shard_count > 1) {
     // Shards share the folder with each other (each artefact is locked by the job writing it) and leave
     // the record, the tables and the report to the unsharded command.
@@ -443,7 +458,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"rgb_full", o.rgb_full},
                            {"stage1", encoder_finetune_options_json(o.stage1)},
                            {"seed", o.seed},
-                           {"eval_train_views", o.eval_train_views}};
+                           {"eval_train_views", o.eval_train_views},
+                           {"view_images", kViewImagesVersion}};
   for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical_path(s));
   for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical_path(s));
   nlohmann::json record = run_record(inputs);

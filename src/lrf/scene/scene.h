@@ -75,6 +75,11 @@ class Scene {
   Eigen::Vector3d camera_mean() const;
 };
 
+// How view images are made from their files; fields fitted to other images are not reused by `compare` or
+// `pipeline`. 2: Lanczos undistortion at the file's resolution, then the area resize (1: the resize, then a
+// bilinear undistortion, which blurred every distorted scene's images).
+constexpr int kViewImagesVersion = 2;
+
 // What Scene::load_image does after decoding: `decoded` (the view's file, float RGB) undistorted at its own
 // resolution, area-resized and cropped to the view's camera.
 cv::Mat view_image_from_file(cv::Mat decoded, const View& v);
