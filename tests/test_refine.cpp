@@ -126,6 +126,44 @@ TEST(DecodedLoss, WindowsStayInsideAndTheLossComparesTheMatchingPixels) {
   EXPECT_GT(leaf.grad().abs().sum().item<double>(), 0);
 }
 
+// A latent rendered by a camera shifted (dx, dy) pixels shows the image moved by (dx, dy): its pixel (u, v)
+// is compared with the image's (u - dx, v - dy). A target made that way matches exactly in every window,
+// also those at the top left whose first rows and columns have no counterpart; unshifted, it does not.
+TEST(DecodedLoss, AShiftedViewIsComparedWithTheImageMovedByTheShift) {
+  auto ae = lrf::load_autoencoder(taef2());
+  lrf::LatentRange range;
+  range.min.assign(32, -4.0f);
+  range.max.assign(32, 4.0f);
+  torch::manual_seed(3);
+  const at::Tensor zn = torch::rand({32, 10, 14}) * 0.4 + 0.3;
+  at::Tensor decoded;
+  {
+    torch::NoGradGuard no_grad;
+    decoded = ae->decode_unclamped(range.denormalize(zn).unsqueeze(0))[0];
+  }
+  const int dx = 3, dy = 5;
+  at::Tensor image = torch::rand_like(decoded);  // rows and columns the shifted view never shows stay noise
+  image.narrow(1, 0, 80 - dy).narrow(2, 0, 112 - dx).copy_(decoded.narrow(1, dy, 80 - dy).narrow(2, dx, 112 - dx));
+  std::mt19937_64 rng(4);
+  std::vector<lrf::DecodeWindow> windows = {lrf::plan_window(10, 14, 0, ae->decode_local_reach(), rng)};
+  lrf::DecodeWindow corner = lrf::plan_window(10, 14, 4, ae->decode_local_reach(), rng);
+  corner.y = 0, corner.x = 0, corner.y0 = 0, corner.x0 = 0;
+  corner.y1 = std::min<int64_t>(10, 4 + ae->decode_local_reach());
+  corner.x1 = std::min<int64_t>(14, 4 + ae->decode_local_reach());
+  windows.push_back(corner);
+  for (int k = 0; k < 3; ++k) windows.push_back(lrf::plan_window(10, 14, 4, ae->decode_local_reach(), rng));
+  for (const auto& w : windows) {
+    const auto d = lrf::decoded_loss(*ae, range, zn, image, w, 0.2, dx, dy);
+    EXPECT_LT(d.loss.item<double>(), 1e-5) << w.y << "," << w.x;
+    const int64_t top = w.y == 0 ? dy : 0, left = w.x == 0 ? dx : 0;
+    EXPECT_EQ(d.decoded.sizes(), (std::vector<int64_t>{3, 8 * w.h - top, 8 * w.w - left}));
+    EXPECT_GT(lrf::decoded_loss(*ae, range, zn, image, w, 0.2).loss.item<double>(), 1e-2);
+  }
+  EXPECT_NE(lrf::test::error_of([&] { lrf::decoded_loss(*ae, range, zn, image, windows[0], 0.2, -1, 0); })
+                .find("shift"),
+            std::string::npos);
+}
+
 // Mean image L1 of the decoded held-out views of a latent run (decoded by `decoder`, "" = the run's).
 double held_out_l1(const std::string& run_dir) {
   lrf::LatentRun run = lrf::open_latent_run(run_dir);
@@ -186,7 +224,7 @@ class RefineRun : public ::testing::Test {
 lrf::test::TempDir* RefineRun::dir_ = nullptr;
 
 // The point of refinement: on the synthetic scene's held-out views (never used by either stage), the
-// decoded images get closer to the truth. Measured: mean L1 0.1076 -> 0.0944 (-12 %) after 60 steps. The
+// decoded images get closer to the truth. Measured: mean L1 0.1109 -> 0.0972 (-12 %) after 60 steps. The
 // test asks for -8 %: with the targets shifted by two latent cells the same run gets -6.7 % (a smooth scene
 // forgives small shifts; DecodedLoss above catches any shift exactly), with no gradient 0 %.
 TEST_F(RefineRun, RefinementLowersTheImageLossOnHeldOutViews) {
@@ -202,6 +240,49 @@ TEST_F(RefineRun, RefinementLowersTheImageLossOnHeldOutViews) {
   const auto config = lrf::read_json_file(*dir_ / "refined/config.json");
   EXPECT_EQ(config["refine"]["refined_from"], fs::weakly_canonical(*dir_ / "field").string());
   EXPECT_GT(config["result"]["refine_seconds"].get<double>(), 0);
+}
+
+// The camera a jittered step renders with moves the latent's content the way DecodedLoss above assumes:
+// shifted by 8 and 16 image pixels (one and two latent cells), the render is the unshifted one moved by one
+// column and two rows.
+TEST_F(RefineRun, ShiftedLatentCameraMovesTheContentByTheShift) {
+  lrf::LatentRun run = lrf::open_latent_run(*dir_ / "field");
+  const int i = run.scene.train_indices.front();
+  const lrf::Camera cam = lrf::latent_camera(run.scene.views[static_cast<size_t>(i)].camera);
+  const at::Tensor plain = lrf::splat::render_field(run.field, cam, run.render).image;
+  const at::Tensor shifted = lrf::splat::render_field(run.field, lrf::shifted_latent_camera(cam, 8, 16), run.render).image;
+  const int64_t h = plain.size(1), w = plain.size(2);
+  const at::Tensor moved = shifted.narrow(1, 2, h - 2).narrow(2, 1, w - 1);
+  const at::Tensor source = plain.narrow(1, 0, h - 2).narrow(2, 0, w - 1);
+  // Away from the frame's edge (where Gaussians just outside one frame are culled, measured up to 0.008) the
+  // two agree exactly (measured: 0); unmoved they differ by 0.087 on average.
+  const at::Tensor diff = (moved - source).abs();
+  EXPECT_LT(diff.narrow(1, 3, diff.size(1) - 6).narrow(2, 3, diff.size(2) - 6).max().item<double>(), 1e-5);
+  EXPECT_GT((shifted - plain).abs().mean().item<double>(), 1e-2);  // the scene is not flat
+}
+
+// With --jitter every step sees its view through a camera shifted by a fraction of a latent cell and the
+// image moved with it. The held-out views improve much as without it (measured: L1 0.1109 -> 0.1007 after
+// 60 steps, against 0.0972 unshifted); a resumed run is the uninterrupted one. (This smooth scene forgives
+// misregistration: with the shift's sign reversed the same run gives 0.1022. The sign is pinned by the two
+// tests above.)
+TEST_F(RefineRun, JitteredRunLowersTheHeldOutLossAndResumesExactly) {
+  const double before = held_out_l1(*dir_ / "field");
+  auto o = options("jittered", 60);
+  o.jitter = 7;
+  lrf::refine_latent_field(o);
+  const double after = held_out_l1(*dir_ / "jittered");
+  std::printf("held-out mean L1 with jitter %.4f -> %.4f\n", before, after);
+  EXPECT_LT(after, 0.95 * before) << "before " << before << " after " << after;
+  EXPECT_EQ(lrf::read_json_file(*dir_ / "jittered/config.json")["refine"]["options"]["jitter"], 7);
+  auto part = options("jittered_part", 30);
+  part.jitter = 7;
+  part.crop = 48;
+  auto whole = part;
+  whole.out = *dir_ / "jittered_whole";
+  lrf::refine_latent_field(whole);
+  refine_interrupted_at(part, 15);
+  expect_same_field("jittered_whole", "jittered_part");
 }
 
 // Windows instead of whole views, interrupted and resumed: the same field as one uninterrupted run.

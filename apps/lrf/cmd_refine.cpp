@@ -45,6 +45,11 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
                   "Weight of an L1 term holding the rendered latent near the encoded training view (normalised "
                   "latent space; 0 = image loss only)")
       ->capture_default_str();
+  cmd->add_option("--jitter", o->jitter,
+                  "Shift each step's camera by a random 0..N pixels in x and y (N/8 of a latent cell) and the "
+                  "training image with it, so that the field is fitted at every phase of the latent grid (0 = off, "
+                  "at most 7)")
+      ->capture_default_str();
   cmd->add_option("--cache-dir", o->cache_dir,
                   "Latent cache of the encoded training views that --lambda-latent needs (default: $LRF_CACHE or "
                   "~/.cache/lrf)");

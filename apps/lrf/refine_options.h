@@ -28,6 +28,9 @@ inline void add_refine_options(CLI::App* cmd, RefineOptions* o, const std::strin
                   p + "keep cloning / splitting Gaussians on the image loss's gradient until this step (0 = the "
                       "field keeps Stage II's Gaussians)")
       ->capture_default_str();
+  cmd->add_option("--refine-jitter", o->jitter,
+                  p + "shift each step's camera and image by a random 0..N pixels (0 = off, at most 7)")
+      ->capture_default_str();
 }
 
 }  // namespace lrf::cli

@@ -27,8 +27,16 @@ DecodeWindow plan_window(int64_t h, int64_t w, int64_t side, int reach, std::mt1
   return win;
 }
 
+Camera shifted_latent_camera(const Camera& latent_camera, int shift_x, int shift_y) {
+  Camera shifted = latent_camera;
+  shifted.cx += shift_x / 8.0;
+  shifted.cy += shift_y / 8.0;
+  return shifted;
+}
+
 DecodedLoss decoded_loss(Autoencoder& ae, const LatentRange& range, const at::Tensor& normalised,
-                         const at::Tensor& image, const DecodeWindow& win, double lambda_ssim) {
+                         const at::Tensor& image, const DecodeWindow& win, double lambda_ssim, int shift_x,
+                         int shift_y) {
   if (normalised.dim() != 3 || image.dim() != 3 || image.size(0) != 3 || image.size(1) != 8 * normalised.size(1) ||
       image.size(2) != 8 * normalised.size(2)) {
     fail("decoded_loss: latent " + std::string(c10::str(normalised.sizes())) + " and image " +
@@ -38,14 +46,21 @@ DecodedLoss decoded_loss(Autoencoder& ae, const LatentRange& range, const at::Te
       win.x0 < 0 || win.y1 > normalised.size(1) || win.x1 > normalised.size(2) || win.h < 1 || win.w < 1) {
     fail("decoded_loss: the window does not lie inside the latent");
   }
+  if (shift_x < 0 || shift_y < 0 || shift_x >= 8 * win.w || shift_y >= 8 * win.h)
+    fail("decoded_loss: the shift must be at least 0 and smaller than the window");
   const at::Tensor features = ae.decode_global(range.denormalize(normalised).unsqueeze(0));
   const at::Tensor decoded_window =
       ae.decode_local(features.narrow(2, win.y0, win.y1 - win.y0).narrow(3, win.x0, win.x1 - win.x0))[0];
+  // The window's pixels, in the shifted view, start at (8 win.y, 8 win.x); in the image at that minus the
+  // shift, so a window at the top or left edge loses the rows and columns the image has no pixels for.
+  const int64_t top = std::max<int64_t>(0, shift_y - 8 * win.y), left = std::max<int64_t>(0, shift_x - 8 * win.x);
   DecodedLoss out;
-  out.decoded = decoded_window.narrow(1, 8 * (win.y - win.y0), 8 * win.h)
-                    .narrow(2, 8 * (win.x - win.x0), 8 * win.w)
+  out.decoded = decoded_window.narrow(1, 8 * (win.y - win.y0) + top, 8 * win.h - top)
+                    .narrow(2, 8 * (win.x - win.x0) + left, 8 * win.w - left)
                     .contiguous();
-  out.target = image.narrow(1, 8 * win.y, 8 * win.h).narrow(2, 8 * win.x, 8 * win.w).contiguous();
+  out.target = image.narrow(1, 8 * win.y - shift_y + top, 8 * win.h - top)
+                   .narrow(2, 8 * win.x - shift_x + left, 8 * win.w - left)
+                   .contiguous();
   out.loss = splat::photometric_loss(out.decoded, out.target, lambda_ssim);
   return out;
 }

@@ -40,6 +40,9 @@ void check_options(const RefineOptions& o) {
   if (!(o.decoder_lr >= 0)) fail("refine: --decoder-lr must be 0 (frozen decoder) or positive");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail("refine: --lambda-ssim must be in [0, 1]");
   if (!(o.lambda_latent >= 0)) fail("refine: --lambda-latent must be 0 or positive");
+  if (o.jitter < 0 || o.jitter > 7) fail("refine: --jitter must be in 0..7 pixels (a latent cell is 8)");
+  if (o.jitter > 0 && o.lambda_latent > 0)
+    fail("refine: --jitter and --lambda-latent exclude each other (the encoded views are of unshifted cameras)");
   if (o.densify_until < 0 || o.densify_interval < 1 || !(o.densify_grad > 0))
     fail("refine: --densify-until must be 0 (no densification) or a step, --densify-interval at least 1 and "
          "--densify-grad positive");
@@ -50,6 +53,16 @@ uint64_t window_seed(uint64_t seed, int64_t step) {
   uint64_t x = seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) * 0xD1B54A32D192ED03ull + 0x5bd1e995;
   x ^= x >> 31;
   return x * 0xBF58476D1CE4E5B9ull;
+}
+
+// The step's camera shift in image pixels (x, y), from a stream of its own, so that windows and view order
+// are those of a run without jitter.
+std::pair<int, int> jitter_of_step(const RefineOptions& o, int64_t step) {
+  if (o.jitter <= 0) return {0, 0};
+  std::mt19937_64 rng(window_seed(o.seed, step) ^ 0x94D049BB133111EBull);
+  std::uniform_int_distribution<int> pixels(0, o.jitter);
+  const int dx = pixels(rng);
+  return {dx, pixels(rng)};
 }
 
 }  // namespace
@@ -64,6 +77,7 @@ std::string refine_description(const RefineOptions& o) {
   else if (o.geometry_lr_scale != 1) s << ", geometry rates x" << o.geometry_lr_scale;
   if (o.densify_until > 0) s << ", densified until step " << o.densify_until;
   if (o.lambda_latent > 0) s << ", latent anchor weight " << o.lambda_latent;
+  if (o.jitter > 0) s << ", cameras jittered by up to " << o.jitter << " px";
   return s.str();
 }
 
@@ -72,7 +86,7 @@ nlohmann::json refine_options_json(const RefineOptions& o) {
           {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
           {"position_lr", o.position_lr}, {"geometry_lr_scale", o.geometry_lr_scale},
           {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
-          {"decoder_lr", o.decoder_lr}, {"lambda_latent", o.lambda_latent},
+          {"decoder_lr", o.decoder_lr}, {"lambda_latent", o.lambda_latent}, {"jitter", o.jitter},
           {"densify_until", o.densify_until}, {"densify_interval", o.densify_interval},
           {"densify_grad", o.densify_grad}, {"seed", o.seed},
           {"checkpoint_every", o.checkpoint_every}, {"resume", o.resume}, {"force", o.force}};
@@ -167,11 +181,18 @@ RefineResult refine_latent_field(const RefineOptions& o) {
     const torch::Tensor& image = images[static_cast<size_t>(view)];
     std::mt19937_64 rng(window_seed(o.seed, step));
     const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
-    DecodedLoss d = decoded_loss(*ae, src.range, rendered, image, win, o.lambda_ssim);
+    const auto [dx, dy] = jitter_of_step(o, step);
+    DecodedLoss d = decoded_loss(*ae, src.range, rendered, image, win, o.lambda_ssim, dx, dy);
     torch::Tensor loss = d.loss;
     if (o.lambda_latent > 0) loss = loss + o.lambda_latent * (rendered - anchors[static_cast<size_t>(view)]).abs().mean();
     return ObjectiveValue{loss, psnr(d.decoded, d.target)};
   };
+  if (o.jitter > 0) {
+    to.camera_of_step = [&](const Camera& camera, int, int64_t step) {
+      const auto [dx, dy] = jitter_of_step(o, step);
+      return shifted_latent_camera(camera, dx, dy);
+    };
+  }
   const double extent = src.config.value("extent", src.scene.camera_extent());
 
   if (decoder_adam) {

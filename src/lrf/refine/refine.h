@@ -41,6 +41,11 @@ struct RefineOptions {
   // normalised latent space, times this weight), so that the field stays a latent field of the scene
   // and not only of the training images' decoded pixels.
   double lambda_latent = 0;
+  // > 0: each step renders its view through a camera shifted by (dx, dy) / 8 latent cells, dx and dy drawn
+  // from 0..jitter pixels, and compares the decoded view with the training image moved by (dx, dy) pixels.
+  // Without it a training view is only ever seen at one phase of the latent grid, so detail the field and
+  // decoder place between latent cells need not hold for another camera; with jitter 7, at all 64. At most 7.
+  int jitter = 0;
   std::string cache_dir;  // latent cache of those encoded views ("" = $LRF_CACHE or ~/.cache/lrf)
   // > 0: Gaussians are still cloned and split (3DGS's rule on the image loss's screen-space gradient)
   // every densify_interval steps until this step; pruning of transparent ones goes on with it.

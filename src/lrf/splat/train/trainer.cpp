@@ -105,7 +105,8 @@ StepResult Trainer::step() {
   const auto& view = views_[static_cast<size_t>(view_index)];
 
   auto t0 = Clock::now();
-  RenderOutput out = render(view.camera, /*grad=*/true);
+  RenderOutput out = render(options_.camera_of_step ? options_.camera_of_step(view.camera, view_index, step) : view.camera,
+                            /*grad=*/true);
   r.timings.render = ms_since(t0);
 
   t0 = Clock::now();

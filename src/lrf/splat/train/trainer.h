@@ -55,6 +55,9 @@ struct TrainerOptions {
   // Called with the 1-based step right after the backward pass, before the Gaussians' Adam step: an
   // objective with parameters of its own (a decoder adapted with the field) updates them here.
   std::function<void(int64_t step)> after_backward;
+  // The camera a step renders its view with (a refinement shifts it by a fraction of a pixel); empty: the
+  // view's own.
+  std::function<Camera(const Camera& camera, int view, int64_t step)> camera_of_step;
 };
 
 // Where a step's time went, in milliseconds.
