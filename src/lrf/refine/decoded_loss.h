@@ -35,13 +35,13 @@ struct DecodedLoss {
   torch::Tensor target;   // the matching part of the image
 };
 
-// normalised: [C, h, w] rendered normalised latent; image: [3, 8h, 8w] in [0, 1]. A latent rendered by a
-// camera shifted by (shift_x, shift_y) / 8 latent cells shows the image moved by (shift_x, shift_y) pixels:
-// its pixel (u, v) is compared with the image's (u - shift_x, v - shift_y), where both exist.
 // The latent camera whose view shows everything moved by (shift_x, shift_y) image pixels: its principal
 // point moved by a shift / 8 of a latent cell.
 Camera shifted_latent_camera(const Camera& latent_camera, int shift_x, int shift_y);
 
+// normalised: [C, h, w] rendered normalised latent; image: [3, 8h, 8w] in [0, 1]. A latent rendered by a
+// camera shifted by (shift_x, shift_y) / 8 latent cells shows the image moved by (shift_x, shift_y) pixels:
+// its pixel (u, v) is compared with the image's (u - shift_x, v - shift_y), where both exist.
 DecodedLoss decoded_loss(Autoencoder& ae, const LatentRange& range, const torch::Tensor& normalised,
                          const torch::Tensor& image, const DecodeWindow& window, double lambda_ssim = 0.2,
                          int shift_x = 0, int shift_y = 0);

@@ -105,8 +105,8 @@ StepResult Trainer::step() {
   const auto& view = views_[static_cast<size_t>(view_index)];
 
   auto t0 = Clock::now();
-  RenderOutput out = render(options_.camera_of_step ? options_.camera_of_step(view.camera, view_index, step) : view.camera,
-                            /*grad=*/true);
+  const Camera camera = options_.camera_of_step ? options_.camera_of_step(view.camera, view_index, step) : view.camera;
+  RenderOutput out = render(camera, /*grad=*/true);
   r.timings.render = ms_since(t0);
 
   t0 = Clock::now();
