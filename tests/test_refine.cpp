@@ -199,6 +199,7 @@ class RefineRun : public ::testing::Test {
     // Each test turns on what it exercises: by default the field alone moves, through the stock decoder.
     r.decoder_lr = 0;
     r.densify_until = 0;
+    r.jitter = 0;
     return r;
   }
   // Runs `o` to `first` steps (checkpointing there), then resumes it to o.steps.
@@ -417,6 +418,11 @@ TEST_F(RefineRun, BadInputIsReported) {
   auto anchor = options("u", 5);
   anchor.lambda_latent = -1;
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(anchor); }).find("--lambda-latent"), std::string::npos);
+  auto anchored_jitter = options("s", 5);  // jitter is on by default: the anchor asks for it off
+  anchored_jitter.lambda_latent = 1;
+  anchored_jitter.jitter = lrf::RefineOptions{}.jitter;
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(anchored_jitter); }).find("--jitter 0"),
+            std::string::npos);
   auto geometry = options("t", 5);
   geometry.geometry_lr_scale = -1;
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(geometry); }).find("--geometry-lr-scale"),

@@ -42,7 +42,8 @@ void check_options(const RefineOptions& o) {
   if (!(o.lambda_latent >= 0)) fail("refine: --lambda-latent must be 0 or positive");
   if (o.jitter < 0 || o.jitter > 7) fail("refine: --jitter must be in 0..7 pixels (a latent cell is 8)");
   if (o.jitter > 0 && o.lambda_latent > 0)
-    fail("refine: --jitter and --lambda-latent exclude each other (the encoded views are of unshifted cameras)");
+    fail("refine: --lambda-latent needs --jitter 0 (the encoded views it holds the field to are of unshifted "
+         "cameras)");
   if (o.densify_until < 0 || o.densify_interval < 1 || !(o.densify_grad > 0))
     fail("refine: --densify-until must be 0 (no densification) or a step, --densify-interval at least 1 and "
          "--densify-grad positive");
