@@ -43,7 +43,7 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--lambda-latent", o->lambda_latent,
                   "Weight of an L1 term holding the rendered latent near the encoded training view (normalised "
-                  "latent space; 0 = image loss only)")
+                  "latent space; 0 = image loss only; needs --jitter 0, as the encoded views are of unshifted cameras)")
       ->capture_default_str();
   cmd->add_option("--jitter", o->jitter,
                   "Shift each step's camera by a random 0..N pixels in x and y (N/8 of a latent cell) and the "
