@@ -1,3 +1,4 @@
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 
@@ -70,6 +71,25 @@ TEST(RunInfo, JsonRoundTripAndBadJsonNamesFile) {
   lrf::write_file_atomic(path.string(), "{not json");
   EXPECT_THROW(lrf::read_json_file(path.string()), lrf::Error);
   fs::remove(path);
+}
+
+// The recorded commit is the checkout's HEAD (when the source is a git checkout), so that a binary
+// rebuilt after a commit does not stamp its runs with the commit CMake saw when it first configured.
+TEST(RunInfo, RecordsTheCommitTheBinaryWasBuiltFrom) {
+  const std::string command = std::string("git -C '") + LRF_SOURCE_DIR + "' rev-parse --short=7 HEAD 2>/dev/null";
+  std::string head;
+  if (FILE* pipe = popen(command.c_str(), "r")) {
+    char buffer[64] = {};
+    if (std::fgets(buffer, sizeof buffer, pipe)) head = buffer;
+    if (pclose(pipe) != 0) head.clear();
+  }
+  while (!head.empty() && (head.back() == '\n' || head.back() == ' ')) head.pop_back();
+  const std::string recorded = lrf::version_info()["git"].get<std::string>();
+  if (head.empty()) {
+    EXPECT_EQ(recorded, "unknown");
+    GTEST_SKIP() << "the source folder is not a git checkout";
+  }
+  EXPECT_TRUE(recorded == head || recorded == head + "-dirty") << "recorded " << recorded << ", HEAD " << head;
 }
 
 #include "lrf/core/npy.h"
