@@ -6,6 +6,7 @@
 
 #include "lrf/compare/compare.h"
 #include "lrf/core/atomic_file.h"
+#include "lrf/core/cache_key.h"
 #include "lrf/core/run_info.h"
 #include "lrf/splat/run/train_run.h"
 #include "test_helpers.h"
@@ -119,6 +120,37 @@ TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
   lrf::write_json_file(dir / "cmp/compare.json", summary);
   const std::string old_msg = lrf::test::error_of([&] { lrf::run_compare(o); });
   EXPECT_NE(old_msg.find("view_images (none vs 2)"), std::string::npos) << old_msg;
+}
+
+// The latent-refined row is reused only when its refinement was made with the refine options asked for
+// now: more steps continue it, other options are refused (a changed default must not pass for the old).
+TEST(Compare, RefinedRowIsReusedOnlyWithTheSameRefineOptions) {
+  lrf::test::TempDir dir("compare_refined");
+  lrf::CompareOptions o = tiny_compare(dir / "cmp");
+  o.methods = {"latent-refined"};
+  o.refine.steps = 3;
+  lrf::run_compare(o);
+  const fs::path refined = dir / "cmp/latent-refined";
+  ASSERT_TRUE(lrf::splat::run_finished(refined.string()));
+  const auto refined_time = fs::last_write_time(refined / "point_cloud.ply");
+  lrf::run_compare(o);  // same options: reused
+  EXPECT_EQ(fs::last_write_time(refined / "point_cloud.ply"), refined_time);
+
+  o.refine.steps = 4;  // constant rates: continued, and scored again
+  lrf::run_compare(o);
+  EXPECT_EQ(lrf::read_json_file((refined / "config.json").string())["result"]["steps"], 4);
+  EXPECT_EQ(lrf::read_json_file((refined / "metrics.json").string())["field_stamp"],
+            lrf::file_stamp((refined / "point_cloud.ply").string()));
+
+  lrf::CompareOptions other = o;
+  other.refine.jitter = 0;
+  std::string msg = lrf::test::error_of([&] { lrf::run_compare(other); });
+  EXPECT_NE(msg.find("the latent-refined field in this folder was made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("jitter"), std::string::npos) << msg;
+  other = o;
+  other.refine.steps = 2;
+  msg = lrf::test::error_of([&] { lrf::run_compare(other); });
+  EXPECT_NE(msg.find("steps (4 vs 2)"), std::string::npos) << msg;
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/refine/refine.h"
+#include "lrf/refine/refine_folder.h"
 #include "lrf/rgb/rgb_baseline.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/run/train_run.h"
@@ -219,8 +220,29 @@ nlohmann::json run_compare(const CompareOptions& o) {
       require_same_latent_sh_degree(latent_dir, o.latent_sh_degree);
       require_same_latent_sh_degree(dir, o.latent_sh_degree);
     }
+    // The refined field is brought up to date first: a finished one is reused only if made with the refine
+    // options asked for now (refine_folder.h), so that its row cannot pass for another setting's.
+    bool refined_now = false;
+    if (method == "latent-refined") {
+      ensure_latent_field();
+      RefineOptions r = o.refine;
+      r.run = latent_dir;
+      r.out = dir;
+      r.decoder = o.decoder;
+      r.seed = o.seed;
+      r.cache_dir = o.cache_dir;
+      if (o.force || latent_fresh) {  // made from an older latent field: start again
+        r.resume = false;
+        r.force = true;
+        log_info("== " + method);
+        refine_latent_field(r);
+        refined_now = true;
+      } else {
+        refined_now = ensure_refined_field(r, "the latent-refined field", "use another output folder, or --force");
+      }
+    }
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
-    if (!o.force && fs::exists(metrics_path) && finished(method, dir)) {
+    if (!o.force && !refined_now && fs::exists(metrics_path) && finished(method, dir)) {
       log_info(method + ": reusing " + metrics_path + " (pass --force to recompute)");
       all[method] = read_json_file(metrics_path);
       continue;
@@ -233,19 +255,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
       le.decoder = o.decoder;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
-    } else if (method == "latent-refined") {
-      ensure_latent_field();
-      if (o.force || latent_fresh || !splat::run_finished(dir)) {
-        RefineOptions r = o.refine;
-        r.run = latent_dir;
-        r.out = dir;
-        r.decoder = o.decoder;
-        r.seed = o.seed;
-        r.cache_dir = o.cache_dir;
-        r.resume = resume && !latent_fresh;
-        r.force = !r.resume;
-        refine_latent_field(r);
-      }
+    } else if (method == "latent-refined") {  // refined above
       LatentEvalOptions le;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);

@@ -20,6 +20,7 @@
 #include "lrf/scene/scene.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/refine/refine_folder.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
 #include "lrf/splat/run/train_run.h"
@@ -126,41 +127,16 @@ void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int do
   train_rgb_baseline(b);
 }
 
-// A field refined through `decoder`: reused when finished with the same settings, resumed when interrupted.
-// With constant learning rates a finished refinement is also continued when more steps are asked for (the
-// run is then the same as one made with the larger count from the start); fewer steps are refused.
-void ensure_refined_field(const PipelineOptions& o, const std::string& field, const std::string& decoder,
-                          const std::string& dir) {
+// A field refined through `decoder` (refine_folder.h: reused, continued to more steps, resumed or made).
+void refine_eval_field(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+                       const std::string& dir) {
   RefineOptions r = o.refine;
   r.run = field;
   r.out = dir;
   r.decoder = decoder;
   r.seed = o.seed;
   r.cache_dir = o.cache_dir;
-  const std::string config = (fs::path(dir) / "config.json").string();
-  if (splat::run_finished(dir)) {
-    const nlohmann::json recorded = read_json_file(config);
-    const nlohmann::json refine = recorded.value("refine", nlohmann::json::object());
-    const int64_t done = recorded["result"].value("steps", int64_t(0));
-    const bool extendable = r.lr_final == 1 && done < r.steps;
-    require_same_settings(config, {{"refine", refine.value("resume_key", nlohmann::json())},
-                                   {"steps", extendable ? int64_t(r.steps) : done}},
-                          {{"refine", refine_resume_key(r)}, {"steps", r.steps}}, "the refined field", dir);
-    if (!extendable) {
-      log_info("reusing refined field " + dir);
-      return;
-    }
-    log_info("continuing refined field " + dir + " from step " + std::to_string(done) + " to " +
-             std::to_string(r.steps));
-    r.resume = true;
-    r.force = false;
-    refine_latent_field(r);
-    return;
-  }
-  r.resume = fs::exists(splat::checkpoint_path(dir)) && fs::exists(config);
-  r.force = !r.resume;
-  log_info("== refine " + field + " -> " + dir + (r.resume ? " (resuming)" : ""));
-  refine_latent_field(r);
+  ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir);
 }
 
 EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const Paths& paths) {
@@ -370,7 +346,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
       ensure_latent_eval(o, stock_field, "", paths.eval(s, "stock"));
       if (o.refine_rows) {
         const std::string refined = paths.field(s, "stock-refined");
-        ensure_refined_field(o, stock_field, "", refined);
+        refine_eval_field(o, stock_field, "", refined);
         ensure_latent_eval(o, refined, "", paths.eval(s, "stock+refine"));
       }
       if (!decoder_stock_ready) return std::string("the decoder row needs the Stage III stock decoder");
@@ -385,7 +361,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
       ensure_latent_eval(o, ft_field, paths.decoder("ft"), paths.eval(s, "both"));
       if (o.refine_rows) {
         const std::string refined = paths.field(s, "ft-refined");
-        ensure_refined_field(o, ft_field, paths.decoder("ft"), refined);
+        refine_eval_field(o, ft_field, paths.decoder("ft"), refined);
         ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
       }
       return std::string();
@@ -537,8 +513,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     if (o.refine_rows) {
       // Each refined field is decoded by the decoder it was refined through (recorded in its config).
       const std::string stock_refined = paths.field(s, "stock-refined"), ft_refined = paths.field(s, "ft-refined");
-      ensure_refined_field(o, stock_field, "", stock_refined);
-      ensure_refined_field(o, ft_field, paths.decoder("ft"), ft_refined);
+      refine_eval_field(o, stock_field, "", stock_refined);
+      refine_eval_field(o, ft_field, paths.decoder("ft"), ft_refined);
       latent_rows["stock+refine"] = {stock_refined, ""};
       latent_rows["both+refine"] = {ft_refined, ""};
     }
