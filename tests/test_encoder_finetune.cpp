@@ -195,10 +195,17 @@ TEST_P(EncoderFinetuneAt, ResumedRunEqualsUninterruptedRun) {
   first.out = dir / "resumed.safetensors";
   first.steps = 3;  // stops after its checkpoint at step 3, as a killed run would have left it
   lrf::finetune_encoder(first);
+  // The checkpoint carries the wall time of the steps so far, and the resumed run's record adds its own.
+  const double at_checkpoint =
+      std::stod(lrf::read_safetensors_metadata(lrf::finetune_checkpoint_path(first.out)).at("lrf_seconds"));
+  EXPECT_GT(at_checkpoint, 0.0);
+  EXPECT_LE(at_checkpoint, lrf::read_json_file(lrf::finetune_record_path(first.out))["result"]["seconds"].get<double>());
   lrf::EncoderFinetuneOptions second = first;
   second.steps = 6;
   second.resume = true;
   lrf::finetune_encoder(second);
+  const nlohmann::json result = lrf::read_json_file(lrf::finetune_record_path(second.out))["result"];
+  EXPECT_NEAR(result["seconds"].get<double>(), at_checkpoint + result["seconds_this_session"].get<double>(), 0.01);
 
   lrf::StateDict a = lrf::read_safetensors(straight.out), b = lrf::read_safetensors(second.out);
   ASSERT_EQ(a.size(), b.size());

@@ -54,6 +54,25 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   for (const auto& row : lrf::ablation_rows()) EXPECT_NE(csv.find("," + row + ","), std::string::npos) << row;
   EXPECT_EQ(csv.rfind("scene,method,psnr,delta_psnr,ssim,ms_ssim,flip,lpips,", 0), 0u) << csv;
 
+  // Wall time per stage, from each stage's own record: every stage took time, and the table's total is
+  // the sum of its rows.
+  const nlohmann::json stages = lrf::read_json_file(dir / "run/pipeline.json")["stage_seconds"];
+  std::vector<std::string> names;
+  double sum = 0;
+  for (const auto& s : stages) {
+    names.push_back(s["stage"]);
+    EXPECT_GT(s["seconds"].get<double>(), 0.0) << s.dump();
+    sum += s["seconds"].get<double>();
+  }
+  EXPECT_EQ(names, (std::vector<std::string>{"Stage I", "Stage II", "Stage III", "Stage II", "refinement", "baselines"}));
+  const std::string stage_csv = lrf::read_file(dir / "run/stages.csv");
+  EXPECT_EQ(stage_csv.rfind("stage,what,runs,seconds,minutes\n", 0), 0u) << stage_csv;
+  EXPECT_NE(stage_csv.find("\ntotal,,13,"), std::string::npos) << stage_csv;  // 1 + 2 + 2 + 2 + 2 + 4 runs
+  const size_t total_at = stage_csv.find("\ntotal,,13,") + 11;
+  EXPECT_NEAR(std::stod(stage_csv.substr(total_at)), sum, 1e-3 * sum + 1e-6) << stage_csv;
+  EXPECT_TRUE(fs::exists(dir / "run/stages.md"));
+  EXPECT_NE(lrf::read_file(dir / "run/report.html").find("Wall time per stage"), std::string::npos);
+
   // No leakage: what Stage I and both Stage III runs were trained on, from their own records, never
   // includes an evaluation scene, and is exactly the training scenes.
   nlohmann::json rec = lrf::read_json_file(dir / "run/pipeline.json");

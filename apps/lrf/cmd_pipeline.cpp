@@ -17,8 +17,8 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       "stock and the new encoder, Stage III (decoder) on the training scenes' fields, then on the evaluation scenes "
       "the rows stock / encoder / decoder / both, the stock and both fields refined through their decoder "
       "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip, rgb and rgb-mip: DIR/ablation.csv, "
-      "DIR/ablation.md, DIR/report.html, "
-      "DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
+      "DIR/ablation.md, DIR/report.html, DIR/stages.csv and stages.md (wall time per stage, from the stages' own "
+      "records, over every session that worked on them), DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
       "command is run again; a larger --refine-steps continues the finished refinements (with constant rates) and "
       "scores their rows again");
   auto o = std::make_shared<lrf::PipelineOptions>();

@@ -219,6 +219,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   r.novel_samples = static_cast<int64_t>(novel.size());
   r.steps = run.steps;
   r.seconds = run.seconds;
+  r.total_seconds = run.total_seconds;
   r.last_loss = run.last_loss;
   r.last_train = run.last_metrics["l1_train"];
   r.last_novel = run.last_metrics["l1_novel"];
@@ -234,6 +235,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     record["result"] = {{"steps", r.steps},
                         {"train_samples", r.train_samples},
                         {"novel_samples", r.novel_samples},
+                        {"seconds", r.total_seconds},
                         {"seconds_this_session", r.seconds},
                         {"loss", r.last_loss},
                         {"l1_train", r.last_train},

@@ -39,6 +39,7 @@ struct DecoderFinetuneResult {
   bool main_rank = true;  // false on the ranks that write nothing
   int64_t steps = 0, train_samples = 0, novel_samples = 0;
   double seconds = 0, last_loss = 0, last_train = 0, last_novel = 0;
+  double total_seconds = 0;  // over every session that made the steps (FinetuneLoopResult)
 };
 
 DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& options);

@@ -247,6 +247,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   result.main_rank = group->is_main();
   result.steps = run.steps;
   result.seconds = run.seconds;
+  result.total_seconds = run.total_seconds;
   result.sync_seconds = run.sync_seconds;
   result.last_total = run.last_loss;
   result.last_vae = run.last_metrics["vae"];
@@ -261,6 +262,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
     record["precision"] = precision_name(model->precision());
     record["world_size"] = group->world_size();
     record["result"] = {{"steps", result.steps},
+                        {"seconds", result.total_seconds},
                         {"seconds_this_session", result.seconds},
                         {"loss", result.last_total},
                         {"vae", result.last_vae},

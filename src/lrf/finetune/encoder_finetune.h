@@ -61,6 +61,7 @@ struct EncoderFinetuneResult {
   bool main_rank = true;  // false on the ranks that write nothing
   int64_t steps = 0;
   double seconds = 0, sync_seconds = 0;  // sync: waiting on the other ranks (see FinetuneLoopResult)
+  double total_seconds = 0;              // over every session that made the steps (FinetuneLoopResult)
   double last_total = 0, last_vae = 0, last_corres = 0, last_reg = 0;
 };
 

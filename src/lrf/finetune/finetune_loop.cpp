@@ -2,7 +2,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <optional>
+#include <string>
 
 #include <torch/torch.h>
 
@@ -30,11 +32,15 @@ double share_weight(const BatchShare& share) {
 
 namespace {
 
+constexpr const char* kSecondsKey = "lrf_seconds";  // checkpoint metadata: wall time of the steps so far
+
 // Restores the checkpoint on rank 0 and copies the state to every rank. A refusal on rank 0 (other
-// options, a damaged file) stops every rank with rank 0's message.
-void start_state(const FinetuneLoop& l) {
+// options, a damaged file) stops every rank with rank 0's message. Returns the checkpoint's recorded
+// wall time on rank 0 (0 for checkpoints written before it was recorded), 0 elsewhere.
+double start_state(const FinetuneLoop& l) {
   DataParallelGroup& g = *l.group;
   std::string refusal;
+  double seconds_before = 0;
   if (l.resume && g.is_main()) {
     try {
       auto meta = l.adam->load(l.checkpoint);
@@ -43,18 +49,24 @@ void start_state(const FinetuneLoop& l) {
                                " (checkpoint: " + meta["lrf_resume_key"] + ")");
       }
       warn_if_precision_changed(meta, l.precision, l.checkpoint);
+      if (auto it = meta.find(kSecondsKey); it != meta.end()) {
+        char* end = nullptr;
+        const double recorded = std::strtod(it->second.c_str(), &end);
+        if (end != it->second.c_str() && std::isfinite(recorded) && recorded >= 0) seconds_before = recorded;
+      }
     } catch (const Error& e) {
       if (!g.distributed()) throw;
       refusal = e.what();
     }
   }
-  if (!g.distributed()) return;
+  if (!g.distributed()) return seconds_before;
   refusal = g.from_main("start", refusal);
   if (!refusal.empty()) fail(g.prefix() + "rank 0 cannot start: " + refusal);
   std::vector<double> step = {g.is_main() ? static_cast<double>(l.adam->steps()) : 0.0};
   g.sum(step);
   l.adam->set_steps(static_cast<int64_t>(step[0]));
   g.broadcast_from_main(l.adam->state_tensors());
+  return seconds_before;
 }
 
 }  // namespace
@@ -62,7 +74,7 @@ void start_state(const FinetuneLoop& l) {
 FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   DataParallelGroup& g = *l.group;
   ParamAdam& adam = *l.adam;
-  start_state(l);
+  const double seconds_before = start_state(l);
   const int64_t start = adam.steps();
   if (l.resume) log_info(g.prefix() + "resuming from " + l.checkpoint + " at step " + std::to_string(start));
   GradientAverager averager(g, adam.parameters());
@@ -71,10 +83,17 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
              std::to_string(averager.buckets()) + " bucket(s)");
   }
 
+  const auto t0 = std::chrono::steady_clock::now();
+  auto seconds_so_far = [&] {
+    return seconds_before + std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  };
   int64_t checkpointed = l.resume ? start : -1;
   auto save_checkpoint = [&] {
     if (g.is_main()) {
-      adam.save(l.checkpoint, {{"lrf_kind", l.kind}, {"lrf_resume_key", l.resume_key}, precision_metadata(l.precision)});
+      adam.save(l.checkpoint, {{"lrf_kind", l.kind},
+                               {"lrf_resume_key", l.resume_key},
+                               precision_metadata(l.precision),
+                               {kSecondsKey, std::to_string(seconds_so_far())}});
     }
     checkpointed = adam.steps();
   };
@@ -88,7 +107,6 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   result.first_step = start;
   std::optional<Progress> progress;
   if (g.is_main()) progress.emplace(l.task, l.steps, 2.0, start);
-  const auto t0 = std::chrono::steady_clock::now();
   for (int64_t step = start; step < l.steps; ++step) {
     adam.zero_grad();
     FinetuneStepLoss part;
@@ -131,6 +149,7 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   save_checkpoint();
   result.steps = l.steps;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  result.total_seconds = seconds_so_far();
   return result;
 }
 

@@ -56,7 +56,11 @@ struct FinetuneLoop {
 
 struct FinetuneLoopResult {
   int64_t first_step = 0, steps = 0;
-  double seconds = 0, last_loss = 0;
+  double seconds = 0, last_loss = 0;  // seconds: this call's
+  // Wall time of every step so far, over all the sessions that made them: each checkpoint records the
+  // time up to it, so a resumed run adds its own to what the checkpoint had (the time between the last
+  // checkpoint and an interruption is not counted; those steps are made again).
+  double total_seconds = 0;
   // Time this rank waited on the other ranks: the all-reduce of the loss terms and what was left of the
   // gradient all-reduce when the backward ended (the rest overlapped with it). 0 for one process.
   double sync_seconds = 0;

@@ -23,6 +23,7 @@
 #include "lrf/refine/refine_folder.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
+#include "lrf/pipeline/stage_times.h"
 #include "lrf/splat/run/train_run.h"
 
 namespace fs = std::filesystem;
@@ -395,6 +396,48 @@ void require_same_view_images(const std::string& out) {
   }
 }
 
+// Wall time per stage (stage_times.h), from the records of the finished steps.
+StageTimes stage_times_of(const PipelineOptions& o, const Paths& paths,
+                          const std::map<std::string, std::vector<std::string>>& train_fields) {
+  StageTimes times;
+  times.add("Stage I", "encoder, on " + std::to_string(o.train_scenes.size()) + " training scene(s)", 1,
+            finetune_record_seconds(finetune_record_path(paths.encoder())));
+  double fields = 0;
+  int count = 0;
+  for (const auto& [tag, dirs] : train_fields) {
+    for (const auto& dir : dirs) {
+      fields += field_run_seconds(dir);
+      ++count;
+    }
+  }
+  times.add("Stage II", "training scenes' latent fields (stock and Stage I encoder)", count, fields);
+  times.add("Stage III", "decoders on those fields (stock and Stage I)", 2,
+            finetune_record_seconds(decoder_record_path(paths.decoder("stock"))) +
+                finetune_record_seconds(decoder_record_path(paths.decoder("ft"))));
+  for (const auto& s : o.eval_scenes) {
+    const std::string name = scene_name(s);
+    times.add("Stage II", name + ": latent fields (stock and Stage I encoder)", 2,
+              field_run_seconds(paths.field(s, "stock")) + field_run_seconds(paths.field(s, "ft")));
+    if (o.refine_rows) {
+      times.add("refinement", name + ": the stock+refine and both+refine fields", 2,
+                field_run_seconds(paths.field(s, "stock-refined")) + field_run_seconds(paths.field(s, "ft-refined")));
+    }
+    if (o.rgb_baseline) {
+      double rgb = 0;
+      std::string rows;
+      int n = 0;
+      for (const RgbBaseline& b : rgb_baselines()) {
+        if (b.factor == 1 && !o.rgb_full) continue;
+        rgb += field_run_seconds(paths.field(s, b.tag));
+        rows += std::string(rows.empty() ? "" : ", ") + b.row;
+        ++n;
+      }
+      times.add("baselines", name + ": RGB fields (" + rows + ")", n, rgb);
+    }
+  }
+  return times;
+}
+
 }  // namespace
 
 nlohmann::json run_pipeline(const PipelineOptions& o) {
@@ -603,8 +646,14 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        "(lrf refine: " + refine_description(o.refine) + "). Image-space baselines: rgb/8 and "
                        "rgb/8-mip = RGB 3DGS and Mip-Splatting trained at latent resolution (the paper's 3DGS/8 and "
                        "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. delta_psnr is against the stock row.");
+  const StageTimes times = stage_times_of(o, paths, train_fields);
+  const ReportTable stage_times = times.table();
+  write_table_csv((fs::path(o.out) / "stages.csv").string(), stage_times.header, stage_times.rows);
+  write_table_markdown((fs::path(o.out) / "stages.md").string(), stage_times.header, stage_times.rows);
+  spec.tables.push_back(stage_times);
   write_html_report((fs::path(o.out) / "report.html").string(), spec);
   record["results"] = results;
+  record["stage_seconds"] = times.json();
   record["wall_seconds_this_session"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_json_file(record_path, record);
   log_info("wrote " + (fs::path(o.out) / "ablation.md").string() + " and report.html");
