@@ -231,15 +231,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
       r.decoder = o.decoder;
       r.seed = o.seed;
       r.cache_dir = o.cache_dir;
-      if (o.force || latent_fresh) {  // made from an older latent field: start again
-        r.resume = false;
-        r.force = true;
-        log_info("== " + method);
-        refine_latent_field(r);
-        refined_now = true;
-      } else {
-        refined_now = ensure_refined_field(r, "the latent-refined field", "use another output folder, or --force");
-      }
+      // A refinement of an older latent field (or any, with --force) is made again from the start.
+      refined_now = ensure_refined_field(r, "the latent-refined field", "use another output folder, or --force",
+                                         o.force || latent_fresh);
     }
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
     if (!o.force && !refined_now && fs::exists(metrics_path) && finished(method, dir)) {

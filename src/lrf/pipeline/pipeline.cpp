@@ -137,7 +137,7 @@ void refine_eval_field(const PipelineOptions& o, const std::string& field, const
   r.decoder = decoder;
   r.seed = o.seed;
   r.cache_dir = o.cache_dir;
-  ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir);
+  ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir, false);
 }
 
 EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const Paths& paths) {

@@ -31,18 +31,26 @@ double field_run_seconds(const std::string& run_dir) {
 }
 
 void StageTimes::add(const std::string& stage, const std::string& what, int runs, double seconds) {
-  rows_.push_back({stage, what, runs, Cell(seconds, 0), Cell(seconds / 60.0, 1)});
-  json_.push_back({{"stage", stage}, {"what", what}, {"runs", runs}, {"seconds", seconds}});
-  total_ += seconds;
-  runs_ += runs;
+  rows_.push_back({{"stage", stage}, {"what", what}, {"runs", runs}, {"seconds", seconds}});
 }
 
 ReportTable StageTimes::table() const {
   ReportTable t;
   t.title = "Wall time per stage";
   t.header = {"stage", "what", "runs", "seconds", "minutes"};
-  t.rows = rows_;
-  t.rows.push_back({"total", "", runs_, Cell(total_, 0), Cell(total_ / 60.0, 1)});
+  double total = 0;
+  int runs = 0;
+  auto row = [](const std::string& stage, const std::string& what, int n, double seconds) {
+    return Row{stage, what, n, Cell(seconds, 0), Cell(seconds / 60.0, 1)};
+  };
+  for (const auto& r : rows_) {
+    const double seconds = r["seconds"].get<double>();
+    const int n = r["runs"].get<int>();
+    t.rows.push_back(row(r["stage"].get<std::string>(), r["what"].get<std::string>(), n, seconds));
+    total += seconds;
+    runs += n;
+  }
+  t.rows.push_back(row("total", "", runs, total));
   return t;
 }
 

@@ -5,7 +5,6 @@
 // image-space baselines. Time spent between a stage's last checkpoint and an interruption is not counted
 // (those steps are made again), nor is scoring.
 #include <string>
-#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -27,13 +26,10 @@ class StageTimes {
   // Columns stage, what, runs, seconds, minutes; the last row is the total.
   ReportTable table() const;
   // The same rows for a record: [{"stage", "what", "runs", "seconds"}, ...], without the total.
-  const nlohmann::json& json() const { return json_; }
+  const nlohmann::json& json() const { return rows_; }
 
  private:
-  std::vector<Row> rows_;
-  nlohmann::json json_ = nlohmann::json::array();
-  double total_ = 0;
-  int runs_ = 0;
+  nlohmann::json rows_ = nlohmann::json::array();  // what table() and json() are made from
 };
 
 }  // namespace lrf

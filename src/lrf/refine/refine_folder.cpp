@@ -14,9 +14,9 @@ namespace fs = std::filesystem;
 
 namespace lrf {
 
-bool ensure_refined_field(RefineOptions r, const std::string& what, const std::string& remedy) {
+bool ensure_refined_field(RefineOptions r, const std::string& what, const std::string& remedy, bool start_over) {
   const std::string config = (fs::path(r.out) / "config.json").string();
-  if (splat::run_finished(r.out)) {
+  if (!start_over && splat::run_finished(r.out)) {
     const nlohmann::json recorded = read_json_file(config);
     const nlohmann::json refine = recorded.value("refine", nlohmann::json::object());
     const int64_t done = recorded.value("result", nlohmann::json::object()).value("steps", int64_t(0));
@@ -37,7 +37,7 @@ bool ensure_refined_field(RefineOptions r, const std::string& what, const std::s
     refine_latent_field(r);
     return true;
   }
-  r.resume = fs::exists(splat::checkpoint_path(r.out)) && fs::exists(config);
+  r.resume = !start_over && fs::exists(splat::checkpoint_path(r.out)) && fs::exists(config);
   r.force = !r.resume;
   log_info("== refine " + r.run + " -> " + r.out + (r.resume ? " (resuming)" : ""));
   refine_latent_field(r);
