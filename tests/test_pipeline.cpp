@@ -123,11 +123,30 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("the field in this folder was made with other settings"), std::string::npos) << msg;
   EXPECT_NE(msg.find("iters (60 vs 61)"), std::string::npos) << msg;
-  // And the evaluation scene's fields with a few-shot split instead of every training view.
+  // A few-shot protocol in the same folder gets its own evaluation fields and tables beside the full ones,
+  // from the same Stage I and Stage III (reused, not refitted), and leaves the full protocol's table as it was.
+  const std::string scene = fs::path(o.eval_scenes[0]).filename().string();
+  const std::string full_table = lrf::read_file(dir / "run/ablation.csv");
   other = o;
   other.eval_train_views = 3;
-  msg = error_of([&] { lrf::run_pipeline(other); });
-  EXPECT_NE(msg.find("few_shot_views (0 vs 3)"), std::string::npos) << msg;
+  other.rgb_full = false;
+  lrf::run_pipeline(other);
+  EXPECT_EQ(fs::last_write_time(dir / "run/stage1/encoder.safetensors"), enc_time);
+  EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
+  EXPECT_EQ(lrf::read_file(dir / "run/ablation.csv"), full_table);
+  EXPECT_EQ(lrf::read_json_file(dir / "run/pipeline.json")["options"]["eval_train_views"], 0);
+  EXPECT_EQ(lrf::read_json_file(dir / "run/pipeline-3views.json")["options"]["eval_train_views"], 3);
+  for (const char* tag : {"stock", "ft", "ft-refined", "rgb8mip"}) {
+    const nlohmann::json config = lrf::read_json_file(dir / "run/fields/" + scene + "-3views-" + tag + "/config.json");
+    EXPECT_EQ(config.value("few_shot_views", 0), 3) << tag;
+  }
+  const std::string few_shot_table = lrf::read_file(dir / "run/ablation-3views.csv");
+  for (const char* row : {"stock", "both", "both+refine", "rgb/8-mip"}) {
+    EXPECT_NE(few_shot_table.find(scene + "-3views," + row + ","), std::string::npos) << row << "\n" << few_shot_table;
+  }
+  for (const char* f : {"ablation-3views.md", "stages-3views.csv", "stages-3views.md", "report-3views.html"}) {
+    EXPECT_TRUE(fs::exists(dir / ("run/" + std::string(f)))) << f;
+  }
   // A refinement with constant rates (the default) is continued to a larger step count, and its rows are
   // scored again; the other artefacts stay as they were.
   other = o;

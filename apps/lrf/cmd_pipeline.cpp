@@ -49,7 +49,10 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--eval-train-views", o->eval_train_views,
                   "Few-shot protocol on the evaluation scenes (the paper's Table 2 uses 3): their fields train on only K "
                   "views, evenly spaced over the non-test views, with initial points triangulated from the K; training "
-                  "scenes keep every view (0: all)")
+                  "scenes keep every view (0: all). Its evaluation fields, scores and tables are its own (fields/<scene>-Kviews-*, "
+                  "eval/<scene>-Kviews, ablation-Kviews.csv/.md, stages-Kviews.csv/.md, report-Kviews.html, "
+                  "pipeline-Kviews.json), beside the full protocol's in the same folder: Stage I, Stage III and the "
+                  "training scenes' fields are reused")
       ->capture_default_str();
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS (v0.1 VGG) weights; without them LPIPS is not computed");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default: $LRF_CACHE or ~/.cache/lrf)");

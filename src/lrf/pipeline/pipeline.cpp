@@ -33,19 +33,37 @@ namespace {
 
 std::string scene_name(const std::string& root) { return fs::path(canonical_path(root)).filename().string(); }
 
+// Where each artefact of a pipeline folder lives. Stage I, Stage III and the training scenes' fields are
+// shared by every evaluation protocol; the evaluation scenes' fields, scores and the tables carry the
+// protocol in their names ("" for every training view, "-3views" for the 3-view split), so the few-shot
+// table is made beside the full one from the same Stage I and Stage III.
 struct Paths {
   std::string root;
+  std::string protocol;  // protocol_suffix(eval_train_views)
   std::string field(const std::string& scene, const std::string& tag) const {
     return (fs::path(root) / "fields" / (scene_name(scene) + "-" + tag)).string();
+  }
+  std::string eval_field(const std::string& scene, const std::string& tag) const {
+    return (fs::path(root) / "fields" / (eval_label(scene) + "-" + tag)).string();
   }
   std::string encoder() const { return (fs::path(root) / "stage1" / "encoder.safetensors").string(); }
   std::string decoder(const std::string& tag) const {
     return (fs::path(root) / "stage3" / ("decoder-" + tag + ".safetensors")).string();
   }
   std::string eval(const std::string& scene, const std::string& row) const {
-    return (fs::path(root) / "eval" / scene_name(scene) / row).string();
+    return (fs::path(root) / "eval" / eval_label(scene) / row).string();
+  }
+  // An evaluation scene's name in folders and tables: its folder name and the protocol.
+  std::string eval_label(const std::string& scene) const { return scene_name(scene) + protocol; }
+  // A table, report or record of this protocol: DIR/<stem><protocol>.<extension>.
+  std::string output(const std::string& stem, const std::string& extension) const {
+    return (fs::path(root) / (stem + protocol + "." + extension)).string();
   }
 };
+
+std::string protocol_suffix(int train_views) {
+  return train_views > 0 ? "-" + std::to_string(train_views) + "views" : std::string();
+}
 
 // Refuses to reuse a finished step of the pipeline that was made with other settings than this run's,
 // naming each setting of `wanted` that the recorded ones lack or differ in.
@@ -341,12 +359,12 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
     });
   }
   for (const auto& s : o.eval_scenes) {
-    const std::string stock_field = paths.field(s, "stock"), ft_field = paths.field(s, "ft");
-    run_unit("stock rows of " + scene_name(s), [&] {
+    const std::string stock_field = paths.eval_field(s, "stock"), ft_field = paths.eval_field(s, "ft");
+    run_unit("stock rows of " + paths.eval_label(s), [&] {
       ensure_latent_field(o, s, downscale[s], o.eval_train_views, stock_field, "");
       ensure_latent_eval(o, stock_field, "", paths.eval(s, "stock"));
       if (o.refine_rows) {
-        const std::string refined = paths.field(s, "stock-refined");
+        const std::string refined = paths.eval_field(s, "stock-refined");
         refine_eval_field(o, stock_field, "", refined);
         ensure_latent_eval(o, refined, "", paths.eval(s, "stock+refine"));
       }
@@ -354,14 +372,14 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
       ensure_latent_eval(o, stock_field, paths.decoder("stock"), paths.eval(s, "decoder"));
       return std::string();
     });
-    run_unit("Stage I rows of " + scene_name(s), [&] {
+    run_unit("Stage I rows of " + paths.eval_label(s), [&] {
       if (!encoder_ready) return no_encoder;
       ensure_latent_field(o, s, downscale[s], o.eval_train_views, ft_field, encoder);
       ensure_latent_eval(o, ft_field, "", paths.eval(s, "encoder"));
       if (!decoder_ft_ready) return std::string("the both rows need the Stage III decoder of the Stage I fields");
       ensure_latent_eval(o, ft_field, paths.decoder("ft"), paths.eval(s, "both"));
       if (o.refine_rows) {
-        const std::string refined = paths.field(s, "ft-refined");
+        const std::string refined = paths.eval_field(s, "ft-refined");
         refine_eval_field(o, ft_field, paths.decoder("ft"), refined);
         ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
       }
@@ -370,8 +388,8 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
     if (!o.rgb_baseline) continue;
     for (const RgbBaseline& b : rgb_baselines()) {
       if (b.factor == 1 && !o.rgb_full) continue;
-      run_unit(std::string(b.row) + " of " + scene_name(s), [&] {
-        const std::string rgb = paths.field(s, b.tag);
+      run_unit(std::string(b.row) + " of " + paths.eval_label(s), [&] {
+        const std::string rgb = paths.eval_field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
         if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, o.lpips_weights);
         return std::string();
@@ -383,16 +401,18 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
   return {{"shard", me}, {"done", done}, {"left", left}};
 }
 
-// Every step of a pipeline folder was fitted to the images of the loader that first wrote pipeline.json
-// (records without the entry are from loader 1); steps made from other images are not mixed in.
-void require_same_view_images(const std::string& out) {
-  const std::string record = (fs::path(out) / "pipeline.json").string();
-  if (!fs::exists(record)) return;
-  const int recorded = read_json_file(record).value("options", nlohmann::json::object()).value("view_images", 1);
-  if (recorded != kViewImagesVersion) {
-    fail(record, "this folder's stages were fitted to images made by another version of lrf's image loader "
-                 "(view_images " + std::to_string(recorded) + " vs " + std::to_string(kViewImagesVersion) +
-                 "): use another output folder");
+// Every step of a pipeline folder was fitted to the images of the loader that first wrote its records
+// (pipeline.json, and one per few-shot protocol; records without the entry are from loader 1); steps made
+// from other images are not mixed in.
+void require_same_view_images(const Paths& paths) {
+  for (const std::string& record : {paths.output("pipeline", "json"), Paths{paths.root, ""}.output("pipeline", "json")}) {
+    if (!fs::exists(record)) continue;
+    const int recorded = read_json_file(record).value("options", nlohmann::json::object()).value("view_images", 1);
+    if (recorded != kViewImagesVersion) {
+      fail(record, "this folder's stages were fitted to images made by another version of lrf's image loader "
+                   "(view_images " + std::to_string(recorded) + " vs " + std::to_string(kViewImagesVersion) +
+                   "): use another output folder");
+    }
   }
 }
 
@@ -415,12 +435,13 @@ StageTimes stage_times_of(const PipelineOptions& o, const Paths& paths,
             finetune_record_seconds(decoder_record_path(paths.decoder("stock"))) +
                 finetune_record_seconds(decoder_record_path(paths.decoder("ft"))));
   for (const auto& s : o.eval_scenes) {
-    const std::string name = scene_name(s);
+    const std::string name = paths.eval_label(s);
     times.add("Stage II", name + ": latent fields (stock and Stage I encoder)", 2,
-              field_run_seconds(paths.field(s, "stock")) + field_run_seconds(paths.field(s, "ft")));
+              field_run_seconds(paths.eval_field(s, "stock")) + field_run_seconds(paths.eval_field(s, "ft")));
     if (o.refine_rows) {
       times.add("refinement", name + ": the stock+refine and both+refine fields", 2,
-                field_run_seconds(paths.field(s, "stock-refined")) + field_run_seconds(paths.field(s, "ft-refined")));
+                field_run_seconds(paths.eval_field(s, "stock-refined")) +
+                    field_run_seconds(paths.eval_field(s, "ft-refined")));
     }
     if (o.rgb_baseline) {
       double rgb = 0;
@@ -428,7 +449,7 @@ StageTimes stage_times_of(const PipelineOptions& o, const Paths& paths,
       int n = 0;
       for (const RgbBaseline& b : rgb_baselines()) {
         if (b.factor == 1 && !o.rgb_full) continue;
-        rgb += field_run_seconds(paths.field(s, b.tag));
+        rgb += field_run_seconds(paths.eval_field(s, b.tag));
         rows += std::string(rows.empty() ? "" : ", ") + b.row;
         ++n;
       }
@@ -451,7 +472,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       if (!names.insert(scene_name(s)).second) fail(s, "two scenes share the folder name '" + scene_name(s) + "'");
     }
   }
-  require_same_view_images(o.out);
+  const Paths paths{o.out, protocol_suffix(o.eval_train_views)};
+  require_same_view_images(paths);
   if (o.shard_count > 1) {
     // Shards share the folder with each other (each artefact is locked by the job writing it) and leave
     // the record, the tables and the report to the unsharded command.
@@ -460,12 +482,11 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
       for (const auto& s : *list) downscale[s] = downscale_for_max_side(s, "", o.max_side);
     }
-    return run_shard(o, Paths{o.out}, downscale);
+    return run_shard(o, paths, downscale);
   }
   const auto t0 = std::chrono::steady_clock::now();
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // the stages below take their own locks on their own outputs
-  Paths paths{o.out};
   nlohmann::json inputs = {{"train_scenes", nlohmann::json::array()},
                            {"eval_scenes", nlohmann::json::array()},
                            {"autoencoder", o.autoencoder},
@@ -482,7 +503,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical_path(s));
   for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical_path(s));
   nlohmann::json record = run_record(inputs);
-  const std::string record_path = (fs::path(o.out) / "pipeline.json").string();
+  const std::string record_path = paths.output("pipeline", "json");
   write_json_file(record_path, record);
 
   // Each scene's resolution, probed once (probing reads the scene).
@@ -532,7 +553,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   nlohmann::json results = nlohmann::json::object();
   std::map<std::string, std::vector<double>> psnr_by_row;
   for (const auto& s : o.eval_scenes) {
-    const std::string stock_field = paths.field(s, "stock"), ft_field = paths.field(s, "ft");
+    const std::string stock_field = paths.eval_field(s, "stock"), ft_field = paths.eval_field(s, "ft");
     ensure_latent_field(o, s, downscale[s], o.eval_train_views, stock_field, "");
     ensure_latent_field(o, s, downscale[s], o.eval_train_views, ft_field, encoder);
     std::map<std::string, nlohmann::json> m;
@@ -540,7 +561,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     if (o.rgb_baseline) {
       for (const RgbBaseline& b : rgb_baselines()) {
         if (b.factor == 1 && !o.rgb_full) continue;
-        const std::string rgb = paths.field(s, b.tag);
+        const std::string rgb = paths.eval_field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
         const std::string metrics = (fs::path(rgb) / "metrics.json").string();
         auto scores = reusable_scores(metrics);
@@ -555,7 +576,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         {"both", {ft_field, paths.decoder("ft")}}};
     if (o.refine_rows) {
       // Each refined field is decoded by the decoder it was refined through (recorded in its config).
-      const std::string stock_refined = paths.field(s, "stock-refined"), ft_refined = paths.field(s, "ft-refined");
+      const std::string stock_refined = paths.eval_field(s, "stock-refined");
+      const std::string ft_refined = paths.eval_field(s, "ft-refined");
       refine_eval_field(o, stock_field, "", stock_refined);
       refine_eval_field(o, ft_field, paths.decoder("ft"), ft_refined);
       latent_rows["stock+refine"] = {stock_refined, ""};
@@ -571,14 +593,14 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       if (!m.count(row)) continue;
       const auto& r = m[row];
       const bool latent = !image_space_row(row);
-      rows.push_back({scene_name(s), row, Cell::number_in(r, "psnr"),
+      rows.push_back({paths.eval_label(s), row, Cell::number_in(r, "psnr"),
                       r.contains("psnr") ? Cell(r["psnr"].get<double>() - stock_psnr) : Cell(),
                       Cell::number_in(r, "ssim"), Cell::number_in(r, "ms_ssim"), Cell::number_in(r, "flip"),
                       Cell::number_in(r, "lpips"),
                       latent ? Cell::number_in(r, "latent_psnr") : Cell(),
                       latent ? Cell::number_in(r, "roundtrip_psnr") : Cell()});
       psnr_by_row[row].push_back(r.value("psnr", 0.0));
-      results[scene_name(s)][row] = {{"psnr", r.value("psnr", 0.0)},
+      results[paths.eval_label(s)][row] = {{"psnr", r.value("psnr", 0.0)},
                                      {"ssim", r.value("ssim", 0.0)},
                                      {"ms_ssim", r.value("ms_ssim", nlohmann::json())},
                                      {"flip", r.value("flip", nlohmann::json())},
@@ -592,7 +614,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     for (int i : scene.test_indices) {
       const View& v = scene.views[static_cast<size_t>(i)];
       ReportView rv;
-      rv.name = scene_name(s) + " / " + v.name;
+      rv.name = paths.eval_label(s) + " / " + v.name;
       rv.ground_truth = {"ground truth", scene.load_image(i), {}};
       const std::string png = fs::path(v.name).stem().string() + ".png";
       for (const auto& row : ablation_rows()) {
@@ -626,8 +648,8 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       rows.push_back(std::move(mean_row));
     }
   }
-  write_table_csv((fs::path(o.out) / "ablation.csv").string(), header, rows);
-  write_table_markdown((fs::path(o.out) / "ablation.md").string(), header, rows);
+  write_table_csv(paths.output("ablation", "csv"), header, rows);
+  write_table_markdown(paths.output("ablation", "md"), header, rows);
   spec.summary_header = header;
   spec.summary_rows = rows;
   spec.summary_better = {Better::none,   Better::none,  Better::higher, Better::higher, Better::higher,
@@ -639,6 +661,12 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        eval_list + ". Autoencoder " + o.autoencoder + "; every scene downscaled so its longer side is at "
                        "most " + std::to_string(o.max_side) + " px; latent fields of " + std::to_string(o.field_iters) +
                        " iterations.");
+  if (o.eval_train_views > 0) {
+    spec.notes.push_back("Few-shot (" + paths.protocol.substr(1) + " in the scene names): the evaluation scenes' fields "
+                         "(latent, refined and RGB) trained on only " + std::to_string(o.eval_train_views) +
+                         " views, evenly spaced over the non-test views; Stage I, Stage III and the training scenes' "
+                         "fields are the folder's own, shared with its full-view table (ablation.csv).");
+  }
   spec.notes.push_back("Rows as in the paper's Table 3: stock = latent field with the stock encoder, decoded by the stock "
                        "decoder; encoder = Stage I encoder; decoder = Stage III decoder fine-tuned on stock-encoder "
                        "fields; both = Stage I encoder and the decoder fine-tuned on its fields. stock+refine and "
@@ -648,15 +676,15 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. delta_psnr is against the stock row.");
   const StageTimes times = stage_times_of(o, paths, train_fields);
   const ReportTable stage_times = times.table();
-  write_table_csv((fs::path(o.out) / "stages.csv").string(), stage_times.header, stage_times.rows);
-  write_table_markdown((fs::path(o.out) / "stages.md").string(), stage_times.header, stage_times.rows);
+  write_table_csv(paths.output("stages", "csv"), stage_times.header, stage_times.rows);
+  write_table_markdown(paths.output("stages", "md"), stage_times.header, stage_times.rows);
   spec.tables.push_back(stage_times);
-  write_html_report((fs::path(o.out) / "report.html").string(), spec);
+  write_html_report(paths.output("report", "html"), spec);
   record["results"] = results;
   record["stage_seconds"] = times.json();
   record["wall_seconds_this_session"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_json_file(record_path, record);
-  log_info("wrote " + (fs::path(o.out) / "ablation.md").string() + " and report.html");
+  log_info("wrote " + paths.output("ablation", "md") + " and " + paths.output("report", "html"));
   return record;
 }
 

@@ -12,6 +12,9 @@
 //   scores    DIR/eval/<scene>/<row>/metrics.json, DIR/ablation.csv / .md, DIR/report.html
 // Every artefact is kept; a re-run reuses what is finished and resumes what was interrupted. DIR/pipeline.json
 // records the inputs of every stage (the evidence that evaluation scenes fed no training).
+// A few-shot protocol (eval_train_views = K > 0) names its evaluation-scene artefacts and its outputs with
+// "-Kviews" (fields/<scene>-Kviews-stock, ablation-Kviews.csv, pipeline-Kviews.json, ...), so one folder
+// holds the full and the few-shot tables, made from the same Stage I, Stage III and training fields.
 #include <cstdint>
 #include <string>
 #include <vector>
