@@ -100,6 +100,8 @@ TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
     EXPECT_EQ(config["few_shot_views"], 3);
     EXPECT_EQ(config["few_shot_view_names"], names);
     EXPECT_NE(config["init_points"].value("source", std::string()), "file") << config["init_points"].dump();
+    // Triangulated from the K views with two-view tracks: K views far apart share few three-view tracks.
+    EXPECT_EQ(config["init_points"]["triangulation"].value("min_track_length", 0), 2) << config["init_points"].dump();
     EXPECT_EQ(lrf::read_json_file(dir / (std::string("cmp/") + m + "/metrics.json"))["views"].size(), 1u);
   }
   EXPECT_EQ(lrf::read_json_file(dir / "cmp/compare.json")["training_views"], names);

@@ -31,6 +31,7 @@ struct PointsOptions {
   std::string colmap_work;
   bool json = false;
   lrf::TriangulationOptions t;
+  bool min_track_given = false;  // --min-track-length was passed (else a few-shot split keeps two-view tracks)
 };
 
 nlohmann::json summary(const PointsOptions& o, const lrf::TriangulatedPoints& r, const std::string& cache_path) {
@@ -48,6 +49,7 @@ int run_points(PointsOptions o) {
   if (o.views != "all" && o.views != "train") fail("--views must be all or train");
   o.t.training_views_only = o.views == "train";
   Scene scene = load_scene(o.scene, o.scene_options);
+  if (!o.min_track_given) o.t = few_shot_triangulation(scene, o.t);  // as training triangulates the split
   TriangulatedPoints result;
   std::string cache_path;
   if (o.with == "colmap") {
@@ -159,8 +161,14 @@ lrf::cli::CommandRegistration reg(11, [](CLI::App& root) {
   cmd->add_option("--min-angle", o->t.min_angle_deg,
                   "Keep points whose rays meet at this many degrees at least (smaller: depth too uncertain)")
       ->capture_default_str();
-  cmd->add_option("--min-track-length", o->t.min_track_length, "Keep points seen in at least this many views")
-      ->capture_default_str();
+  cmd->add_option_function<int>(
+         "--min-track-length",
+         [o](const int& n) {
+           o->t.min_track_length = n;
+           o->min_track_given = true;
+         },
+         "Keep points seen in at least this many views (default 3; 2 for a few-shot split's training views, "
+         "as lrf train triangulates them)");
   cmd->add_option("--seed", o->t.seed, "Seed of the choice of seed pairs in long tracks")->capture_default_str();
   cmd->add_option("--reference", o->reference,
                   "Compare with this COLMAP points3D.bin/.txt (same poses, so the same frame): nearest-neighbour "

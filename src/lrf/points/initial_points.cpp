@@ -19,10 +19,10 @@ bool is_keyword(const std::string& mode) { return mode == "auto" || mode == "ran
 std::string cache_dir_of(const InitPointsOptions& o) { return o.cache_dir.empty() ? default_cache_dir() : o.cache_dir; }
 
 // Automatic initialisation sees the training views only, as the field does: test views stay unseen.
-TriangulationOptions for_training(const InitPointsOptions& o) {
+TriangulationOptions for_training(const Scene& scene, const InitPointsOptions& o) {
   TriangulationOptions t = o.triangulation;
   t.training_views_only = true;
-  return t;
+  return few_shot_triangulation(scene, t);
 }
 
 InitialPoints random_because(const std::string& why) {
@@ -53,8 +53,10 @@ InitialPoints triangulated_or_random(const Scene& scene, const InitPointsOptions
                                     std::to_string(scene.train_indices.size()) +
                                     " training views (the scene's SfM points also saw the test views)"
                                   : std::string("triangulating points from the training views (--init-points triangulate)"));
-  CachedTriangulation c = triangulate_cached(scene, for_training(o), cache_dir_of(o));
-  const nlohmann::json entry = {{"cache", c.path}, {"cached", c.hit}, {"stats", c.stats}};
+  const TriangulationOptions t = for_training(scene, o);
+  CachedTriangulation c = triangulate_cached(scene, t, cache_dir_of(o));
+  const nlohmann::json entry = {{"cache", c.path}, {"cached", c.hit}, {"stats", c.stats},
+                                {"min_track_length", t.min_track_length}};
   std::string why;
   if (!c.failure.empty()) {
     why = "triangulation failed: " + c.failure;
@@ -128,7 +130,7 @@ InitialPoints describe_initial_points(const Scene& scene, const InitPointsOption
     ip.source = "file";
     ip.description = "file " + scene.points_file + " (" + std::to_string(scene.points.size()) + " points)";
   } else {
-    CachedTriangulation c = find_cached_triangulation(scene, for_training(o), cache_dir_of(o));
+    CachedTriangulation c = find_cached_triangulation(scene, for_training(scene, o), cache_dir_of(o));
     if (!c.hit) {
       ip.source = "triangulated";
       ip.description = "triangulated from the training views when a field is first trained at this resolution "

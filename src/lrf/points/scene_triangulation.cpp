@@ -167,6 +167,11 @@ TriangulatedPoints triangulate_scene(const Scene& scene, const TriangulationOpti
   return result;
 }
 
+TriangulationOptions few_shot_triangulation(const Scene& scene, TriangulationOptions options) {
+  if (scene.few_shot_views > 0 && options.training_views_only) options.min_track_length = 2;
+  return options;
+}
+
 std::vector<SfmPoint> to_sfm_points(const std::vector<TriangulatedPoint>& points) {
   std::vector<SfmPoint> out;
   out.reserve(points.size());

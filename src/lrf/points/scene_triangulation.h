@@ -53,6 +53,12 @@ struct TriangulatedPoints {
 // or no point survives the filters, with the counts that say why.
 TriangulatedPoints triangulate_scene(const Scene& scene, const TriangulationOptions& options);
 
+// The options for triangulating from a few-shot split's training views alone: tracks of two views are
+// kept. Its K views are spread over the whole capture, so most surfaces are seen by two of them at most,
+// and a three-view rule leaves too few points (fern, 3 views: 45 points against 173 with two-view tracks)
+// for anything but a random start. Other scenes and splits keep `options` as they are.
+TriangulationOptions few_shot_triangulation(const Scene& scene, TriangulationOptions options);
+
 // As SfM points (ids 1..N) for the field initialisers.
 std::vector<SfmPoint> to_sfm_points(const std::vector<TriangulatedPoint>& points);
 
