@@ -405,7 +405,9 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
 // (pipeline.json, and one per few-shot protocol; records without the entry are from loader 1); steps made
 // from other images are not mixed in.
 void require_same_view_images(const Paths& paths) {
-  for (const std::string& record : {paths.output("pipeline", "json"), Paths{paths.root, ""}.output("pipeline", "json")}) {
+  const Paths full_protocol{paths.root, ""};
+  const std::set<std::string> records = {full_protocol.output("pipeline", "json"), paths.output("pipeline", "json")};
+  for (const std::string& record : records) {  // one file when this is the full protocol
     if (!fs::exists(record)) continue;
     const int recorded = read_json_file(record).value("options", nlohmann::json::object()).value("view_images", 1);
     if (recorded != kViewImagesVersion) {
