@@ -147,6 +147,17 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   for (const char* f : {"ablation-3views.md", "stages-3views.csv", "stages-3views.md", "report-3views.html"}) {
     EXPECT_TRUE(fs::exists(dir / ("run/" + std::string(f)))) << f;
   }
+  // A K-view field records the track rule of its start; one made before the rule was recorded (a 3-view
+  // field then started from random points) is refused rather than reused in the table.
+  const fs::path stock_config = dir / ("run/fields/" + scene + "-3views-stock/config.json");
+  const nlohmann::json current = lrf::read_json_file(stock_config.string());
+  EXPECT_EQ(current["init_points"]["triangulation"]["min_track_length"], 2);
+  nlohmann::json earlier = current;
+  earlier["init_points"]["triangulation"].erase("min_track_length");
+  lrf::write_json_file(stock_config.string(), earlier);
+  msg = error_of([&] { lrf::run_pipeline(other); });
+  EXPECT_NE(msg.find("initial_points_min_track_length (none vs 2)"), std::string::npos) << msg;
+  lrf::write_json_file(stock_config.string(), current);
   // A refinement with constant rates (the default) is continued to a larger step count, and its rows are
   // scored again; the other artefacts stay as they were.
   other = o;

@@ -22,6 +22,7 @@
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/points/scene_triangulation.h"
 #include "lrf/refine/refine.h"
 #include "lrf/refine/refine_folder.h"
 #include "lrf/rgb/rgb_baseline.h"
@@ -44,7 +45,7 @@ std::string method_dir(const std::string& method) {
 // What every method's field depends on beyond its own name. Finished methods are reused, so a folder made
 // with other settings is refused rather than mixed into one table.
 nlohmann::json compare_settings(const CompareOptions& o) {
-  return {{"scene", canonical_path(o.scene)},
+  nlohmann::json settings = {{"scene", canonical_path(o.scene)},
           {"images", o.images},
           {"downscale", o.downscale},
           {"test_every", o.test_every},
@@ -55,6 +56,12 @@ nlohmann::json compare_settings(const CompareOptions& o) {
           {"init_points", o.init_points.mode},
           {"far_shell", o.init_points.shell.points},
           {"view_images", kViewImagesVersion}};
+  // A K-view split triangulates its own start; a folder made by an earlier track rule is not reused.
+  const bool triangulates = o.init_points.mode == "auto" || o.init_points.mode == "triangulate";
+  if (o.train_views > 0 && triangulates) {
+    settings["initial_points_min_track_length"] = few_shot_min_track_length(o.train_views);
+  }
+  return settings;
 }
 
 void require_same_settings(const std::string& summary_path, const nlohmann::json& wanted) {

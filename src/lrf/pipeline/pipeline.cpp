@@ -20,6 +20,7 @@
 #include "lrf/scene/scene.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/points/scene_triangulation.h"
 #include "lrf/refine/refine_folder.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
@@ -76,13 +77,28 @@ void require_same_settings(const std::string& record, const nlohmann::json& reco
   }
 }
 
-// The settings that decide a field: scene, resolution, length, seed and (latent) the autoencoder's identity.
+// The settings that decide a field: scene, resolution, length, seed, (latent) the autoencoder's identity and,
+// for a K-view split, the track rule its initial points were triangulated with (none: the scene's own points).
 nlohmann::json field_settings(const std::string& scene, int downscale, int train_views, int64_t iters, uint64_t seed,
-                              const std::string& autoencoder_id) {
+                              const std::string& autoencoder_id, const nlohmann::json& min_track_length) {
   nlohmann::json j = {{"scene", canonical_path(scene)}, {"downscale", downscale}, {"few_shot_views", train_views},
                       {"iters", iters}, {"seed", seed}};
   if (!autoencoder_id.empty()) j["autoencoder_identity"] = autoencoder_id;
+  if (train_views > 0 && !min_track_length.is_null()) j["initial_points_min_track_length"] = min_track_length;
   return j;
+}
+
+nlohmann::json wanted_field_settings(const std::string& scene, int downscale, int train_views, const PipelineOptions& o,
+                                     const std::string& autoencoder_id) {
+  return field_settings(scene, downscale, train_views, o.field_iters, o.seed, autoencoder_id,
+                        few_shot_min_track_length(train_views));
+}
+
+// A record without the rule (written before it was recorded) gives null: the setting is then missing.
+nlohmann::json recorded_min_track_length(const nlohmann::json& config) {
+  const nlohmann::json init = config.value("init_points", nlohmann::json::object());
+  if (!init.is_object()) return nullptr;
+  return init.value("triangulation", nlohmann::json::object()).value("min_track_length", nlohmann::json());
 }
 
 // True if DIR holds a finished field made with these settings; throws if it holds one made with others.
@@ -94,7 +110,8 @@ bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
   const nlohmann::json recorded = field_settings(config.value("scene", std::string()), config.value("downscale", 0),
                                                  config.value("few_shot_views", 0),
                                                  options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
-                                                 config.value("autoencoder_identity", std::string()));
+                                                 config.value("autoencoder_identity", std::string()),
+                                                 recorded_min_track_length(config));
   require_same_settings(record, recorded, wanted, "the field", dir);
   log_info("reusing field " + dir);
   return true;
@@ -108,8 +125,8 @@ nlohmann::json finetune_settings(nlohmann::json options) {
 
 void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int downscale, int train_views,
                          const std::string& dir, const std::string& encoder) {
-  if (reusable_field(dir, field_settings(scene, downscale, train_views, o.field_iters, o.seed,
-                                         autoencoder_identity(o.autoencoder, encoder)))) {
+  if (reusable_field(dir, wanted_field_settings(scene, downscale, train_views, o,
+                                                autoencoder_identity(o.autoencoder, encoder)))) {
     return;
   }
   LatentTrainOptions l;
@@ -131,7 +148,7 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
 // An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
 void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
                       int factor, bool mip) {
-  if (reusable_field(dir, field_settings(scene, downscale, o.eval_train_views, o.field_iters, o.seed, ""))) return;
+  if (reusable_field(dir, wanted_field_settings(scene, downscale, o.eval_train_views, o, ""))) return;
   RgbBaselineOptions b;
   b.scene = scene;
   b.scene_options.downscale = downscale;

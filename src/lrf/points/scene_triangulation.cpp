@@ -167,9 +167,19 @@ TriangulatedPoints triangulate_scene(const Scene& scene, const TriangulationOpti
   return result;
 }
 
-TriangulationOptions few_shot_triangulation(const Scene& scene, TriangulationOptions options) {
-  if (scene.few_shot_views > 0 && options.training_views_only) options.min_track_length = 2;
+TriangulationOptions few_shot_triangulation(int few_shot_views, TriangulationOptions options) {
+  if (few_shot_views > 0 && options.training_views_only) options.min_track_length = 2;
   return options;
+}
+
+TriangulationOptions few_shot_triangulation(const Scene& scene, TriangulationOptions options) {
+  return few_shot_triangulation(scene.few_shot_views, options);
+}
+
+int few_shot_min_track_length(int few_shot_views) {
+  TriangulationOptions training;
+  training.training_views_only = true;
+  return few_shot_triangulation(few_shot_views, training).min_track_length;
 }
 
 std::vector<SfmPoint> to_sfm_points(const std::vector<TriangulatedPoint>& points) {
