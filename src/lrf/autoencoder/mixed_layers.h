@@ -14,6 +14,12 @@ class MixedConv2dImpl : public torch::nn::Conv2dImpl {
  public:
   explicit MixedConv2dImpl(const torch::nn::Conv2dOptions& options);
   at::Tensor forward(const at::Tensor& input);
+
+ private:
+  // A bf16 convolution whose weight gradient will be taken, on an output larger than one tile.
+  bool needs_tiles(const at::Tensor& input) const;
+  // The same convolution computed tile by tile (see mixed_layers.cpp for why).
+  at::Tensor tiled_forward(const at::Tensor& input);
 };
 TORCH_MODULE(MixedConv2d);
 
