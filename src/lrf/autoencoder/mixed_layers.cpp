@@ -19,11 +19,11 @@ MixedConv2dImpl::MixedConv2dImpl(const torch::nn::Conv2dOptions& options) : torc
 namespace {
 
 // oneDNN's bf16 weight-gradient kernels on AMX (the libtorch 1.13 of Debian 12) are wrong for large
-// images: fern's 504x376 gives NaN in the last layer's gradient and a relative error of 1.4 in the 64->64
-// layers', 128x512 too; 64x768 never returns. Images up to 320x320 (and 512x128, 1024x64) agree with
-// fp32 to bf16's rounding (relative error 0.003). So a training convolution in bf16 is run on output
-// tiles no larger than this, each from its own zero-padded window of the input: the result is the same
-// convolution, and the tiles' weight gradients add up in float32 at the parameter.
+// images, measured on a 64->64 3x3 layer against fp32: above about 112,000 pixels (320x350 right,
+// 336x336 and fern's 504x376 wrong: relative error 1.4, NaN for 3 output channels) and for wide ones
+// (128x512 wrong); 64x768 never returns. 256x256 (also 512x128, 1024x64) agrees to bf16's rounding
+// (relative error 0.003) at 1 and 2 threads. So a training convolution in bf16 is run on output tiles
+// no larger than this: the same convolution, whose tiles' weight gradients add up in float32.
 constexpr int64_t kWeightGradientTile = 256;
 
 int64_t output_size(int64_t in, int64_t pad, int64_t kernel, int64_t stride, int64_t dilation) {
@@ -42,37 +42,40 @@ bool MixedConv2dImpl::needs_tiles(const at::Tensor& input) const {
          output_size(input.size(3), (*pad)[1], (*k)[1], (*s)[1], (*d)[1]) > kWeightGradientTile;
 }
 
-at::Tensor MixedConv2dImpl::tiled_forward(const at::Tensor& input) {
-  const auto& pad = *c10::get<torch::ExpandingArray<2>>(options.padding());
-  const auto& k = *options.kernel_size();
-  const auto& s = *options.stride();
-  const auto& d = *options.dilation();
-  const at::Tensor padded = at::constant_pad_nd(input, {pad[1], pad[1], pad[0], pad[0]});
-  const int64_t out_h = output_size(input.size(2), pad[0], k[0], s[0], d[0]);
-  const int64_t out_w = output_size(input.size(3), pad[1], k[1], s[1], d[1]);
+at::Tensor conv2d_in_tiles(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias,
+                           at::IntArrayRef stride, at::IntArrayRef padding, at::IntArrayRef dilation, int64_t groups,
+                           int64_t tile) {
+  if (tile < 1) fail("conv2d_in_tiles: the tile side must be positive");
+  const auto dtype = input.scalar_type();
+  const int64_t kh = weight.size(2), kw = weight.size(3);
+  const at::Tensor padded = at::constant_pad_nd(input, {padding[1], padding[1], padding[0], padding[0]});
+  const int64_t out_h = output_size(input.size(2), padding[0], kh, stride[0], dilation[0]);
+  const int64_t out_w = output_size(input.size(3), padding[1], kw, stride[1], dilation[1]);
   std::vector<at::Tensor> rows;
-  for (int64_t y0 = 0; y0 < out_h; y0 += kWeightGradientTile) {
-    const int64_t y1 = std::min(out_h, y0 + kWeightGradientTile);
+  for (int64_t y0 = 0; y0 < out_h; y0 += tile) {
+    const int64_t y1 = std::min(out_h, y0 + tile);
     std::vector<at::Tensor> tiles;
-    for (int64_t x0 = 0; x0 < out_w; x0 += kWeightGradientTile) {
-      const int64_t x1 = std::min(out_w, x0 + kWeightGradientTile);
+    for (int64_t x0 = 0; x0 < out_w; x0 += tile) {
+      const int64_t x1 = std::min(out_w, x0 + tile);
       // The input window whose valid convolution is exactly output rows y0..y1-1, columns x0..x1-1.
-      const at::Tensor window = padded.slice(2, y0 * s[0], (y1 - 1) * s[0] + d[0] * (k[0] - 1) + 1)
-                                    .slice(3, x0 * s[1], (x1 - 1) * s[1] + d[1] * (k[1] - 1) + 1);
-      // A cast per tile, so that each tile's weight gradient reaches the float32 parameter on its own.
-      const at::Tensor w = weight.to(at::kBFloat16);
-      const at::Tensor b = bias.defined() ? bias.to(at::kBFloat16) : bias;
-      tiles.push_back(at::conv2d(window, w, b, options.stride(), at::IntArrayRef({0, 0}), options.dilation(),
-                                 options.groups()));
+      const at::Tensor window = padded.slice(2, y0 * stride[0], (y1 - 1) * stride[0] + dilation[0] * (kh - 1) + 1)
+                                    .slice(3, x0 * stride[1], (x1 - 1) * stride[1] + dilation[1] * (kw - 1) + 1);
+      // A cast per tile, so that each tile's weight gradient reaches a float32 parameter on its own.
+      const at::Tensor w = weight.to(dtype);
+      const at::Tensor b = bias.defined() ? bias.to(dtype) : bias;
+      tiles.push_back(at::conv2d(window, w, b, stride, at::IntArrayRef({0, 0}), dilation, groups));
     }
     rows.push_back(tiles.size() == 1 ? tiles[0] : at::cat(tiles, 3));
   }
-  at::Tensor out = rows.size() == 1 ? rows[0] : at::cat(rows, 2);
+  const at::Tensor out = rows.size() == 1 ? rows[0] : at::cat(rows, 2);
   return out.contiguous(input.suggest_memory_format());
 }
 
 at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
-  if (needs_tiles(input)) return tiled_forward(input);
+  if (needs_tiles(input)) {
+    return conv2d_in_tiles(input, weight, bias, options.stride(), c10::get<torch::ExpandingArray<2>>(options.padding()),
+                           options.dilation(), options.groups(), kWeightGradientTile);
+  }
   const auto dtype = input.scalar_type();
   // Same dtype: no cast, so fp32 runs exactly the plain layer's arithmetic.
   at::Tensor w = weight.scalar_type() == dtype ? weight : weight.to(dtype);

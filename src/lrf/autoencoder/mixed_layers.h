@@ -18,10 +18,16 @@ class MixedConv2dImpl : public torch::nn::Conv2dImpl {
  private:
   // A bf16 convolution whose weight gradient will be taken, on an output larger than one tile.
   bool needs_tiles(const at::Tensor& input) const;
-  // The same convolution computed tile by tile (see mixed_layers.cpp for why).
-  at::Tensor tiled_forward(const at::Tensor& input);
 };
 TORCH_MODULE(MixedConv2d);
+
+// The zero-padded convolution of `input`, computed on output tiles of at most tile x tile pixels, each
+// from its own window of the input, with weight and bias cast to the input's dtype once per tile. The
+// value is that of at::conv2d; the tiles only bound the size of each call (MixedConv2d uses it for bf16
+// training, where oneDNN's AMX weight gradient of large images is wrong).
+at::Tensor conv2d_in_tiles(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias,
+                           at::IntArrayRef stride, at::IntArrayRef padding, at::IntArrayRef dilation, int64_t groups,
+                           int64_t tile);
 
 // Group normalisation, computed in float32 whatever the input dtype (the output has the input's
 // dtype): its statistics run over whole groups, where bf16's 8-bit mantissa would lose the mean.
