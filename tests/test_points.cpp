@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <optional>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -302,6 +303,21 @@ TEST(Points, InitPointsModes) {
   o.mode = "/no/such/points3D.bin";
   EXPECT_NE(lrf::test::error_of([&] { lrf::choose_initial_points(with, o); }).find("/no/such/points3D.bin"),
             std::string::npos);
+}
+
+// The rule recorded for a K-view field is the one its start is triangulated with, and only modes that
+// triangulate have one: a field started from random points or a file must not claim a track rule.
+TEST(Points, FewShotTrackRuleIsTheRuleOfTheTriangulatingModes) {
+  lrf::TriangulationOptions training;
+  training.training_views_only = true;
+  const int rule = lrf::few_shot_triangulation(3, training).min_track_length;
+  EXPECT_EQ(rule, 2);  // two-view tracks: see few_shot_triangulation
+  EXPECT_EQ(lrf::few_shot_track_rule("auto", 3), std::optional<int>(rule));
+  EXPECT_EQ(lrf::few_shot_track_rule("triangulate", 3), std::optional<int>(rule));
+  EXPECT_FALSE(lrf::few_shot_track_rule("random", 3).has_value());
+  EXPECT_FALSE(lrf::few_shot_track_rule("points3D.bin", 3).has_value());
+  EXPECT_FALSE(lrf::few_shot_track_rule("auto", 0).has_value());  // the full split keeps the scene's points
+  EXPECT_GT(lrf::few_shot_triangulation(0, training).min_track_length, rule);
 }
 
 TEST(Points, FarShellLiesBeyondThePointsWhereViewsLook) {

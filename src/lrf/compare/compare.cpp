@@ -22,7 +22,7 @@
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
-#include "lrf/points/scene_triangulation.h"
+#include "lrf/points/initial_points.h"
 #include "lrf/refine/refine.h"
 #include "lrf/refine/refine_folder.h"
 #include "lrf/rgb/rgb_baseline.h"
@@ -57,9 +57,8 @@ nlohmann::json compare_settings(const CompareOptions& o) {
           {"far_shell", o.init_points.shell.points},
           {"view_images", kViewImagesVersion}};
   // A K-view split triangulates its own start; a folder made by an earlier track rule is not reused.
-  const bool triangulates = o.init_points.mode == "auto" || o.init_points.mode == "triangulate";
-  if (o.train_views > 0 && triangulates) {
-    settings["initial_points_min_track_length"] = few_shot_min_track_length(o.train_views);
+  if (const std::optional<int> rule = few_shot_track_rule(o.init_points.mode, o.train_views)) {
+    settings["initial_points_min_track_length"] = *rule;
   }
   return settings;
 }

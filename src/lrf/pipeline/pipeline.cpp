@@ -20,7 +20,7 @@
 #include "lrf/scene/scene.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
-#include "lrf/points/scene_triangulation.h"
+#include "lrf/points/initial_points.h"
 #include "lrf/refine/refine_folder.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
@@ -90,8 +90,10 @@ nlohmann::json field_settings(const std::string& scene, int downscale, int train
 
 nlohmann::json wanted_field_settings(const std::string& scene, int downscale, int train_views, const PipelineOptions& o,
                                      const std::string& autoencoder_id) {
+  // The pipeline's fields always start from `auto` points.
+  const std::optional<int> rule = few_shot_track_rule("auto", train_views);
   return field_settings(scene, downscale, train_views, o.field_iters, o.seed, autoencoder_id,
-                        few_shot_min_track_length(train_views));
+                        rule ? nlohmann::json(*rule) : nlohmann::json());
 }
 
 // A record without the rule (written before it was recorded) gives null: the setting is then missing.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 
 #include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
@@ -16,13 +17,28 @@ namespace {
 
 bool is_keyword(const std::string& mode) { return mode == "auto" || mode == "random" || mode == "triangulate"; }
 
+// Where `mode` takes a split's points from. A split of K views (K > 0) never takes the scene's own points
+// under auto: they were reconstructed from every view, test views included.
+enum class Source { kRandom, kFile, kScenePoints, kTriangulation };
+
+Source source_of(const std::string& mode, int few_shot_views, bool scene_has_points) {
+  if (mode == "random") return Source::kRandom;
+  if (!is_keyword(mode)) return Source::kFile;
+  if (mode == "auto" && scene_has_points && few_shot_views == 0) return Source::kScenePoints;
+  return Source::kTriangulation;
+}
+
+Source source_of(const Scene& scene, const InitPointsOptions& o) {
+  return source_of(o.mode, scene.few_shot_views, !scene.points.empty());
+}
+
 std::string cache_dir_of(const InitPointsOptions& o) { return o.cache_dir.empty() ? default_cache_dir() : o.cache_dir; }
 
 // Automatic initialisation sees the training views only, as the field does: test views stay unseen.
 TriangulationOptions for_training(const Scene& scene, const InitPointsOptions& o) {
   TriangulationOptions t = o.triangulation;
   t.training_views_only = true;
-  return few_shot_triangulation(scene, t);
+  return few_shot_triangulation(scene.few_shot_views, t);
 }
 
 InitialPoints random_because(const std::string& why) {
@@ -80,15 +96,16 @@ InitialPoints triangulated_or_random(const Scene& scene, const InitPointsOptions
 
 InitialPoints choose_points(const Scene& scene, const InitPointsOptions& o) {
   check_init_points_mode(o.mode);
-  if (o.mode == "random") return random_because("--init-points random");
+  const Source source = source_of(scene, o);
+  if (source == Source::kRandom) return random_because("--init-points random");
   InitialPoints ip;
-  if (!is_keyword(o.mode)) {
+  if (source == Source::kFile) {
     ip.points = read_points_file(o.mode);
     if (ip.points.empty()) fail(o.mode, "no points in the file (--init-points)");
     ip.source = "file";
     ip.description = std::to_string(ip.points.size()) + " points from " + o.mode;
     ip.record = {{"source", "file"}, {"file", absolute(o.mode)}, {"points", ip.points.size()}};
-  } else if (o.mode == "auto" && !scene.points.empty() && scene.few_shot_views == 0) {
+  } else if (source == Source::kScenePoints) {
     ip.points = scene.points;
     ip.source = "file";
     ip.description = std::to_string(ip.points.size()) + " SfM points from " + scene.points_file;
@@ -113,6 +130,13 @@ void check_init_points_mode(const std::string& mode) {
   if (!fs::is_regular_file(mode)) fail(mode, "point file not found (--init-points)");
 }
 
+std::optional<int> few_shot_track_rule(const std::string& mode, int few_shot_views) {
+  if (few_shot_views <= 0 || source_of(mode, few_shot_views, true) != Source::kTriangulation) return std::nullopt;
+  TriangulationOptions training;
+  training.training_views_only = true;
+  return few_shot_triangulation(few_shot_views, training).min_track_length;
+}
+
 InitialPoints choose_initial_points(const Scene& scene, const InitPointsOptions& o) {
   InitialPoints ip = choose_points(scene, o);
   ip.record["mode"] = o.mode;  // what was asked for: a resumed run asks for it again
@@ -121,12 +145,13 @@ InitialPoints choose_initial_points(const Scene& scene, const InitPointsOptions&
 
 InitialPoints describe_initial_points(const Scene& scene, const InitPointsOptions& o) {
   check_init_points_mode(o.mode);
-  if (o.mode == "random") return random_because("--init-points random");
+  const Source source = source_of(scene, o);
+  if (source == Source::kRandom) return random_because("--init-points random");
   InitialPoints ip;
-  if (!is_keyword(o.mode)) {
+  if (source == Source::kFile) {
     ip.source = "file";
     ip.description = "file " + o.mode;
-  } else if (o.mode == "auto" && !scene.points.empty() && scene.few_shot_views == 0) {
+  } else if (source == Source::kScenePoints) {
     ip.source = "file";
     ip.description = "file " + scene.points_file + " (" + std::to_string(scene.points.size()) + " points)";
   } else {

@@ -6,6 +6,7 @@
 // points3D.bin/.txt. A few-shot scene (SceneOptions::train_views) never starts from the scene's own points
 // under `auto`: they were reconstructed from every view, test views included, so its K views triangulate
 // their own. A far-background shell (far_shell.h) can be added to any of them but random.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -38,6 +39,13 @@ InitialPoints choose_initial_points(const Scene& scene, const InitPointsOptions&
 // What choose_initial_points would use, without triangulating (for `lrf scene info`): the source and a
 // line that says which file or cache entry.
 InitialPoints describe_initial_points(const Scene& scene, const InitPointsOptions& options);
+
+// The track rule (fewest views per point) with which a K-view split (K = few_shot_views > 0) triangulates
+// its initial points under `mode`, or nothing when that mode takes no triangulated points (random, a points
+// file) or the split is the full one. Runs that reuse finished fields compare it with the rule a field
+// records, so that a field started by another rule (before two-view tracks, a 3-view fern field started
+// from random points) is not taken for a current one.
+std::optional<int> few_shot_track_rule(const std::string& mode, int few_shot_views);
 
 // Checks a --init-points value (auto, random, triangulate or an existing .bin/.txt file).
 void check_init_points_mode(const std::string& mode);

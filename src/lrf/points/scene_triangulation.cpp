@@ -172,16 +172,6 @@ TriangulationOptions few_shot_triangulation(int few_shot_views, TriangulationOpt
   return options;
 }
 
-TriangulationOptions few_shot_triangulation(const Scene& scene, TriangulationOptions options) {
-  return few_shot_triangulation(scene.few_shot_views, options);
-}
-
-int few_shot_min_track_length(int few_shot_views) {
-  TriangulationOptions training;
-  training.training_views_only = true;
-  return few_shot_triangulation(few_shot_views, training).min_track_length;
-}
-
 std::vector<SfmPoint> to_sfm_points(const std::vector<TriangulatedPoint>& points) {
   std::vector<SfmPoint> out;
   out.reserve(points.size());

@@ -53,17 +53,11 @@ struct TriangulatedPoints {
 // or no point survives the filters, with the counts that say why.
 TriangulatedPoints triangulate_scene(const Scene& scene, const TriangulationOptions& options);
 
-// The options for triangulating from a few-shot split's training views alone: tracks of two views are
-// kept. Its K views are spread over the whole capture, so most surfaces are seen by two of them at most,
-// and a three-view rule leaves too few points (fern, 3 views: 45 points against 173 with two-view tracks)
-// for anything but a random start. Other scenes and splits keep `options` as they are.
-TriangulationOptions few_shot_triangulation(const Scene& scene, TriangulationOptions options);
+// The options for triangulating from a K-view split's training views alone (K = few_shot_views > 0):
+// tracks of two views are kept. Its K views are spread over the whole capture, so most surfaces are seen by
+// two of them at most, and a three-view rule leaves too few points (fern, 3 views: 45 points against 173
+// with two-view tracks) for anything but a random start. Other splits keep `options` as they are.
 TriangulationOptions few_shot_triangulation(int few_shot_views, TriangulationOptions options);
-
-// The track rule a training run of a K-view split (K > 0) triangulates its initial points with. Runs that
-// reuse finished fields compare it with the one a field records, so that a field started by another rule
-// (before two-view tracks, a 3-view fern field started from random points) is not taken for a current one.
-int few_shot_min_track_length(int few_shot_views);
 
 // As SfM points (ids 1..N) for the field initialisers.
 std::vector<SfmPoint> to_sfm_points(const std::vector<TriangulatedPoint>& points);
