@@ -131,7 +131,9 @@ void check_init_points_mode(const std::string& mode) {
 }
 
 std::optional<int> few_shot_track_rule(const std::string& mode, int few_shot_views) {
-  if (few_shot_views <= 0 || source_of(mode, few_shot_views, true) != Source::kTriangulation) return std::nullopt;
+  if (few_shot_views <= 0) return std::nullopt;
+  // Whether the scene has its own points only matters to the full split (K = 0), which returned above.
+  if (source_of(mode, few_shot_views, /*scene_has_points=*/true) != Source::kTriangulation) return std::nullopt;
   TriangulationOptions training;
   training.training_views_only = true;
   return few_shot_triangulation(few_shot_views, training).min_track_length;
