@@ -45,7 +45,7 @@ std::vector<std::string> strings(const nlohmann::json& a) {
 TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   lrf::test::TempDir dir("pipeline");
   lrf::PipelineOptions o = tiny_pipeline(dir / "run");
-  lrf::run_pipeline(o);
+  EXPECT_EQ(fs::path(lrf::run_pipeline(o)["table"].get<std::string>()), fs::path(dir / "run/ablation.md"));
   for (const char* f : {"ablation.csv", "ablation.md", "report.html", "pipeline.json", "stage1/encoder.safetensors",
                         "stage3/decoder-stock.safetensors", "stage3/decoder-ft.safetensors"}) {
     EXPECT_TRUE(fs::exists(dir / ("run/" + std::string(f)))) << f;
@@ -130,7 +130,9 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   other = o;
   other.eval_train_views = 3;
   other.rgb_full = false;
-  lrf::run_pipeline(other);
+  const nlohmann::json few_shot_record = lrf::run_pipeline(other);
+  // What `lrf pipeline` prints: this protocol's table, not the full one beside it.
+  EXPECT_EQ(fs::path(few_shot_record["table"].get<std::string>()), fs::path(dir / "run/ablation-3views.md"));
   EXPECT_EQ(fs::last_write_time(dir / "run/stage1/encoder.safetensors"), enc_time);
   EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
   EXPECT_EQ(lrf::read_file(dir / "run/ablation.csv"), full_table);

@@ -1,6 +1,5 @@
 // lrf pipeline: Stage I -> Stage II -> Stage III on training scenes, then the ablation on unseen scenes.
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 
 #include "command.h"
@@ -76,7 +75,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
                   record["shard"].get<std::string>().c_str(), record["done"].size(), record["left"].size());
       return 0;
     }
-    std::printf("%s", lrf::read_file((std::filesystem::path(o->out) / "ablation.md").string()).c_str());
+    std::printf("%s", lrf::read_file(record["table"].get<std::string>()).c_str());
     return 0;
   });
 });

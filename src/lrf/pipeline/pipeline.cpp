@@ -702,6 +702,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   spec.tables.push_back(stage_times);
   write_html_report(paths.output("report", "html"), spec);
   record["results"] = results;
+  record["table"] = paths.output("ablation", "md");  // the protocol's own table (ablation-Kviews.md for K views)
   record["stage_seconds"] = times.json();
   record["wall_seconds_this_session"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_json_file(record_path, record);

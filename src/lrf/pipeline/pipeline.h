@@ -52,7 +52,8 @@ void parse_shard(const std::string& text, PipelineOptions* options);
 // rows (stock, encoder, decoder, both), then the refined fields (stock+refine, both+refine).
 const std::vector<std::string>& ablation_rows();
 
-// Runs (or reuses) every step; returns the summary written to DIR/pipeline.json. With a shard (n > 1)
+// Runs (or reuses) every step; returns the summary written to DIR/pipeline.json (DIR/pipeline-Kviews.json
+// for K views), whose "table" is the path of the protocol's ablation table in Markdown. With a shard (n > 1)
 // runs only that share of the per-scene steps instead and returns what it did and what it left:
 // the per-scene steps are numbered in a fixed order, in units that keep a field together with
 // what needs only it (a field, its refinement, their evaluations), and unit k belongs to shard k mod n.
