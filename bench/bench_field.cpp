@@ -3,6 +3,9 @@
 // L1 loss against the view's image, so that the backward sees a real gradient). Trained fields differ
 // from the synthetic scenes of bench_rasterizer where it matters for speed: opaque surfaces saturate
 // pixels early, and splat sizes follow the scene.
+// A latent field (C != 3) is rendered at its latent grid (the image cropped to a multiple of 8, then /8)
+// against a target of zeros, since the training latents need the autoencoder; the gradient it sends
+// back is as dense as a real L1's.
 //
 // usage: bench_field PLY SCENE [--images DIR] [--views N] [--reps N] [--threads N] [--width 1|4|8]
 #include <algorithm>
@@ -16,6 +19,7 @@
 
 #include "lrf/core/allocator.h"
 #include "lrf/core/threads.h"
+#include "lrf/latent/latent_field.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/ply_io.h"
 #include "lrf/splat/raster/raster_kernels.h"
@@ -68,8 +72,10 @@ int main(int argc, char** argv) {
   }
   try {
     lrf::set_thread_count(threads);
-    const lrf::Scene scene = lrf::load_scene(scene_dir, options);
     lrf::splat::Gaussians g = lrf::splat::read_ply(ply);
+    const bool latent = g.channels() != 3;
+    options.crop_to_multiple_of_8 = latent;
+    const lrf::Scene scene = lrf::load_scene(scene_dir, options);
     const int degree = g.max_sh_degree;
     g.make_leaves();
     std::printf("%s: %lld Gaussians, SH degree %d, %d threads, %d lanes; median of %d runs per view\n",
@@ -79,8 +85,11 @@ int main(int argc, char** argv) {
     const int n_views = std::min<int>(views, static_cast<int>(scene.train_indices.size()));
     for (int k = 0; k < n_views; ++k) {
       const lrf::View& view = scene.views[static_cast<size_t>(scene.train_indices[static_cast<size_t>(k)])];
-      const torch::Tensor target = chw(scene.load_image(scene.train_indices[static_cast<size_t>(k)]));
-      const auto settings = lrf::splat::settings_for(view.camera, degree, torch::zeros({3}));
+      const lrf::Camera camera = latent ? lrf::latent_camera(view.camera) : view.camera;
+      const torch::Tensor target =
+          latent ? torch::zeros({g.channels(), camera.height, camera.width})
+                 : chw(scene.load_image(scene.train_indices[static_cast<size_t>(k)]));
+      const auto settings = lrf::splat::settings_for(camera, degree, torch::zeros({g.channels()}));
       std::vector<double> fwd, both;
       for (int r = 0; r < reps; ++r) {
         auto t0 = Clock::now();
@@ -96,7 +105,7 @@ int main(int argc, char** argv) {
         for (auto* p : g.parameters()) p->mutable_grad() = torch::Tensor();
       }
       std::printf("  %-16s %dx%d  render %7.2f ms  render+backward %7.2f ms\n", view.name.c_str(),
-                  view.camera.width, view.camera.height, median(fwd), median(both));
+                  camera.width, camera.height, median(fwd), median(both));
       sum_fwd += median(fwd);
       sum_both += median(both);
     }
