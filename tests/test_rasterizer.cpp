@@ -125,7 +125,7 @@ TEST_P(ForwardMatchesReference, ImageAlphaDepthRadii) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Channels, ForwardMatchesReference, ::testing::Values(1, 3, 4, 32));
+INSTANTIATE_TEST_SUITE_P(Channels, ForwardMatchesReference, ::testing::Values(1, 3, 4, 16, 32));
 
 // loss = Σ w_image ⊙ image + Σ w_alpha ⊙ alpha + Σ w_depth ⊙ depth with fixed random weights.
 struct Upstream {
@@ -541,7 +541,8 @@ TEST(Rasterizer, EveryVectorWidthGivesTheSameResult) {
     RenderOutput out;
     std::vector<torch::Tensor> grads;
   };
-  for (int C : {1, 3, 32}) {
+  // 16 and 32 channels take the pixel-major colour loops (raster_tiles.h), the others the lane loops.
+  for (int C : {1, 3, 16, 32}) {
     Scene s = make_scene(60, C, 3, 1, 40 + C);
     torch::manual_seed(3);
     const Upstream u = make_upstream(s, true);

@@ -7,6 +7,14 @@
 // the per-pixel front-to-back result (each pixel sees the same splats in the same order) at a cost
 // proportional to the splats' footprints rather than list length × 256. Pixels go kWidth at a time along a
 // row; lanes that do not take part carry α = 0, which leaves every per-pixel quantity unchanged bit for bit.
+//
+// Many channels (latent fields, C = 16 or 32) change the layout of the per-channel work. At latent
+// resolution a splat covers one to three pixels of a row, so a group of kWidth lanes blends about two of
+// them (fern's 7k-step latent field: 2.05 of 8), and a channel loop over lanes would spend most of its
+// C vector operations on masked lanes. There the tile's colour buffers are pixel-major ([p·C + c]) and
+// each blended pixel runs its C channels kWidth at a time; the per-pixel scalars (α, T, depth) stay in
+// lanes. Per channel the forward does the same multiply and add as the lane loop, so images do not change
+// by a bit; the backward's sums over channels and pixels are taken in another order.
 #include <omp.h>
 
 #include <algorithm>
@@ -25,6 +33,18 @@ namespace lrf::splat::tiles {
 constexpr int kTilePixels = kTileSize * kTileSize;
 constexpr int kTileStorage = kTilePixels + 8;
 constexpr int kGeomGrads = 7;  // d xy (2), d conic (3), d opacity, d depth
+
+template <int kC, class V>
+constexpr bool pixel_major() {
+  return kC >= 16 && kC % V::kWidth == 0;
+}
+
+// acc[c] += col[c]·w over one pixel's channels.
+template <int kC, class V>
+inline void add_weighted_channels(float* acc, const float* col, float w) {
+  const typename V::F vw = V::set1(w);
+  for (int c = 0; c < kC; c += V::kWidth) V::store(acc + c, V::add(V::load(acc + c), V::mul(V::load(col + c), vw)));
+}
 
 // α and e^−σ of a splat along one pixel row of at most kTileSize pixels: pixel k is at offset
 // (dx0 − k, dy) = mean − pixel centre. α is 0 where the splat is skipped (σ < 0 from rounding, or
@@ -53,6 +73,7 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
   using F = typename V::F;
   using I = typename V::I;
   const int C = kC > 0 ? kC : in.channels;
+  constexpr bool kPixelMajor = pixel_major<kC, V>();
   const int x0 = (tile % in.tiles_x) * kTileSize, y0 = (tile / in.tiles_x) * kTileSize;
   const int x1 = std::min(x0 + kTileSize, in.width), y1 = std::min(y0 + kTileSize, in.height);
   alignas(32) float T[kTileStorage], acc_depth[kTileStorage];
@@ -61,7 +82,7 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
   std::fill(acc_depth, acc_depth + kTileStorage, 0.f);
   std::fill(last, last + kTileStorage, -1);
   std::fill(done, done + kTileStorage, 0);
-  std::fill(acc, acc + kTileStorage * C, 0.f);  // channel-major: acc[c·kTileStorage + p]
+  std::fill(acc, acc + kTileStorage * C, 0.f);  // acc[c·kTileStorage + p], or acc[p·C + c] if pixel-major
   int remaining = (x1 - x0) * (y1 - y0);
 
   const F one = V::set1(1.f), min_T = V::set1(kMinTransmittance);
@@ -109,9 +130,18 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
         if (!col) col = source.get(g, C);
         const F a = V::and_(alpha, blend);
         const F weight = V::mul(a, t);
-        for (int c = 0; c < C; ++c) {
-          float* dst = acc + c * kTileStorage + p;
-          V::store(dst, V::add(V::load(dst), V::mul(V::set1(col[c]), weight)));
+        if constexpr (kPixelMajor) {
+          alignas(64) float w[V::kWidth];
+          V::store(w, weight);
+          for (int bits = V::movemask(blend); bits; bits &= bits - 1) {
+            const int l = __builtin_ctz(static_cast<unsigned>(bits));
+            add_weighted_channels<kC, V>(acc + (p + l) * kC, col, w[l]);
+          }
+        } else {
+          for (int c = 0; c < C; ++c) {
+            float* dst = acc + c * kTileStorage + p;
+            V::store(dst, V::add(V::load(dst), V::mul(V::set1(col[c]), weight)));
+          }
         }
         V::store(acc_depth + p, V::add(V::load(acc_depth + p), V::mul(vz, weight)));
         V::store(T + p, V::mul(t, V::sub(one, a)));  // T·(1 − 0) = T on the other lanes, bit for bit
@@ -126,7 +156,10 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
     for (int j = x0; j < x1; ++j) {
       const int p = (i - y0) * kTileSize + (j - x0);
       const int64_t pix = static_cast<int64_t>(i) * in.width + j;
-      for (int c = 0; c < C; ++c) out.image[c * plane + pix] = acc[c * kTileStorage + p] + T[p] * in.background[c];
+      for (int c = 0; c < C; ++c) {
+        const float value = kPixelMajor ? acc[p * C + c] : acc[c * kTileStorage + p];
+        out.image[c * plane + pix] = value + T[p] * in.background[c];
+      }
       out.alpha[pix] = 1.f - T[p];
       out.depth[pix] = acc_depth[p];
       out.t_final[pix] = T[p];
@@ -172,6 +205,7 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
   using F = typename V::F;
   using I = typename V::I;
   const int C = kC > 0 ? kC : in.channels;
+  constexpr bool kPixelMajor = pixel_major<kC, V>();
   const int x0 = (tile % in.tiles_x) * kTileSize, y0 = (tile / in.tiles_x) * kTileSize;
   const int x1 = std::min(x0 + kTileSize, in.width), y1 = std::min(y0 + kTileSize, in.height);
   const int64_t plane = static_cast<int64_t>(in.width) * in.height;
@@ -184,7 +218,8 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
   std::fill(st.gaT, st.gaT + kTileStorage, 0.f);
   std::fill(st.gd, st.gd + kTileStorage, 0.f);
   std::fill(st.last, st.last + kTileStorage, -1);
-  std::fill(grad_pixels, grad_pixels + kTileStorage * C, 0.f);  // channel-major, [c·kTileStorage + p]
+  // [c·kTileStorage + p], or [p·C + c] if pixel-major
+  std::fill(grad_pixels, grad_pixels + kTileStorage * C, 0.f);
   int32_t max_last = -1;
   for (int i = y0; i < y1; ++i)
     for (int j = x0; j < x1; ++j) {
@@ -195,7 +230,7 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
       float dot = 0;
       for (int c = 0; c < C; ++c) {
         const float g = bin.d_image[c * plane + pix];
-        grad_pixels[c * kTileStorage + p] = g;
+        grad_pixels[kPixelMajor ? p * C + c : c * kTileStorage + p] = g;
         dot += g * in.background[c];
       }
       st.bgT[p] = tf * dot;
@@ -241,7 +276,10 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
         const F valid = V::cmpneq(alpha, V::zero());
         if (!V::movemask(valid)) continue;
         if (!touched) {
-          for (int c = 0; c < C; ++c) dcolv[c] = V::zero();
+          if constexpr (kPixelMajor)
+            std::fill(dcol_sum, dcol_sum + C, 0.f);
+          else
+            for (int c = 0; c < C; ++c) dcolv[c] = V::zero();
           touched = true;
         }
         const F gauss = V::load(row_gauss + q);
@@ -249,10 +287,25 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
         const F Ti = V::mul(V::load(st.T + p), inv);
         const F weight = V::mul(alpha, Ti);
         F cg = V::zero();
-        for (int c = 0; c < C; ++c) {
-          const F gp = V::load(grad_pixels + c * kTileStorage + p);
-          cg = V::add(cg, V::mul(V::set1(col[c]), gp));
-          dcolv[c] = V::add(dcolv[c], V::mul(weight, gp));
+        if constexpr (kPixelMajor) {
+          // Per valid pixel: cg = col · (d loss / d pixel) and the colour gradient += weight · (d loss / d pixel).
+          alignas(64) float w[V::kWidth], cgl[V::kWidth] = {};
+          V::store(w, weight);
+          for (int bits = V::movemask(valid); bits; bits &= bits - 1) {
+            const int l = __builtin_ctz(static_cast<unsigned>(bits));
+            const float* gp = grad_pixels + (p + l) * kC;
+            F dot = V::zero();
+            for (int c = 0; c < kC; c += V::kWidth) dot = V::add(dot, V::mul(V::load(col + c), V::load(gp + c)));
+            cgl[l] = V::hsum(dot);
+            add_weighted_channels<kC, V>(dcol_sum, gp, w[l]);
+          }
+          cg = V::load(cgl);
+        } else {
+          for (int c = 0; c < C; ++c) {
+            const F gp = V::load(grad_pixels + c * kTileStorage + p);
+            cg = V::add(cg, V::mul(V::set1(col[c]), gp));
+            dcolv[c] = V::add(dcolv[c], V::mul(weight, gp));
+          }
         }
         const F rg = V::load(st.RG + p), rd = V::load(st.RD + p), gd = V::load(st.gd + p);
         F d_alpha = V::sub(V::mul(Ti, cg), V::mul(V::add(rg, V::load(st.bgT + p)), inv));
@@ -278,7 +331,8 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
     if (!touched) continue;
     const float sums[kGeomGrads] = {V::hsum(v_gx), V::hsum(v_gy), V::hsum(v_A), V::hsum(v_B),
                                     V::hsum(v_C),  V::hsum(v_o),  V::hsum(v_z)};
-    for (int c = 0; c < C; ++c) dcol_sum[c] = V::hsum(dcolv[c]);
+    if constexpr (!kPixelMajor)
+      for (int c = 0; c < C; ++c) dcol_sum[c] = V::hsum(dcolv[c]);
     float* geom = buf.geom + static_cast<int64_t>(g) * kGeomGrads;
     float* gc = buf.colors + static_cast<int64_t>(g) * C;
     if (!buf.touched[g]) {
