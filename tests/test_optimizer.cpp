@@ -82,3 +82,22 @@ TEST(GaussianAdam, InactiveBandsAndInvisibleRowsAreSkipped) {
   EXPECT_TRUE(torch::equal(g.means[2], before.means[2]));
   EXPECT_TRUE(torch::equal(g.sh[7], before.sh[7]));
 }
+
+// The AVX2 loop does the scalar loop's operations in the same order: same bits, tail included (n is not a
+// multiple of 8), over steps where the moments start at zero and then grow.
+TEST(GaussianAdam, VectorLoopMatchesScalarLoopBitForBit) {
+  const int64_t n = 1003;
+  torch::manual_seed(5);
+  auto p0 = torch::randn({n}), m0 = torch::zeros({n}), v0 = torch::zeros({n});
+  auto p1 = p0.clone(), m1 = m0.clone(), v1 = v0.clone();
+  for (int t = 1; t <= 4; ++t) {
+    const auto g = torch::randn({n}) * std::pow(10.0, t - 3);  // gradients from 1e-2 to 10
+    const AdamScalars s = adam_scalars(1e-2, 0.9, 0.999, 1e-15, t);
+    adam_update(p0.data_ptr<float>(), g.data_ptr<float>(), m0.data_ptr<float>(), v0.data_ptr<float>(), n, s, false);
+    adam_update(p1.data_ptr<float>(), g.data_ptr<float>(), m1.data_ptr<float>(), v1.data_ptr<float>(), n, s, true);
+  }
+  EXPECT_FALSE(torch::equal(p0, torch::zeros({n})));
+  EXPECT_TRUE(torch::equal(p0, p1));
+  EXPECT_TRUE(torch::equal(m0, m1));
+  EXPECT_TRUE(torch::equal(v0, v1));
+}

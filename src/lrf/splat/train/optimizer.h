@@ -32,6 +32,19 @@ struct LearningRates {
   double others_final_factor = 1.0;
 };
 
+// The scalars of one Adam update at step t (bias corrections folded in), in float as the update runs.
+struct AdamScalars {
+  float beta1, beta2, one_minus_beta1, one_minus_beta2, step_size, inv_sqrt_bc2, eps;
+};
+AdamScalars adam_scalars(double lr, double beta1, double beta2, double eps, int64_t t);
+
+// PyTorch's Adam update of n contiguous floats: m ← β1·m + (1 − β1)·g, v ← β2·v + (1 − β2)·g·g,
+// p ← p − step·m / (√v / √bc2 + ε). Eight lanes at a time where the CPU has AVX2; every lane does the
+// scalar loop's operations in its order (IEEE square root and division, no fused multiply-add), so the
+// result does not depend on the CPU. `vectorised` = false forces the scalar loop (for the test).
+void adam_update(float* p, const float* g, float* m, float* v, int64_t n, const AdamScalars& s,
+                 bool vectorised = true);
+
 class GaussianAdam {
  public:
   static constexpr int kGroups = 5;  // order of Gaussians::parameters()
