@@ -6,7 +6,8 @@
 // (L1 + SSIM forward), backward (loss and rasterizer backward), optimizer (fused Adam), densify
 // (statistics every step; one clone/split/prune, reported separately per call). Rows "(a)sp" use the
 // sparse Adam (rows no pixel reached are skipped). The rasterizer's own stages (projection, SH,
-// binning/sort, forward, backward) are timed by bench_rasterizer.
+// binning/sort, forward, backward) are timed by bench_rasterizer. Case (a) starts with Adam's update loop
+// alone, scalar against vectorised (their ratio, measured alternately in one run).
 //
 // usage: bench_train [--quick] [--case a|b|all] [--sh 0|1|3 (case (a) only that degree)] [--iters N]
 //                    [--width 1|4|8 (compositing lanes; default widest)]
@@ -17,16 +18,19 @@
 #include <cstring>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <torch/torch.h>
 
 #include "lrf/core/allocator.h"
 #include "lrf/core/threads.h"
 #include "lrf/splat/train/densify.h"
+#include "lrf/splat/train/optimizer.h"
 #include "lrf/splat/raster/raster_kernels.h"
 #include "lrf/splat/train/trainer.h"
 
 using namespace lrf::splat;
+using Clock = std::chrono::steady_clock;
 
 namespace {
 
@@ -130,6 +134,27 @@ void print(const std::string& name, int w, int h, int c, int64_t n, int degree, 
 
 }  // namespace
 
+// Adam's update loop alone, scalar and vectorised alternately in this process, over case (a)'s state at
+// SH degree 1 (50k rows of 3 + 3 + 4 + 1 + 4·32 floats), one thread: the ratio holds while the machine's
+// speed drifts.
+void adam_loops(int reps) {
+  const int64_t n = 50000LL * (3 + 3 + 4 + 1 + 4 * 32);
+  torch::manual_seed(2);
+  auto p = torch::randn({n}), g = torch::randn({n}) * 1e-3, m = torch::zeros({n}), v = torch::zeros({n});
+  std::vector<double> times[2];
+  for (int r = 0; r < reps; ++r)
+    for (int vec = 0; vec < 2; ++vec) {
+      const AdamScalars s = adam_scalars(2.5e-3, 0.9, 0.999, 1e-15, r + 1);
+      const auto t0 = Clock::now();
+      adam_update(p.data_ptr<float>(), g.data_ptr<float>(), m.data_ptr<float>(), v.data_ptr<float>(), n, s, vec);
+      times[vec].push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    }
+  for (auto& t : times) std::sort(t.begin(), t.end());
+  const double scalar = times[0][times[0].size() / 2], vectorised = times[1][times[1].size() / 2];
+  std::printf("adam update, %lld floats, 1 thread, median of %d: scalar %.2f ms, vectorised %.2f ms, ratio %.2fx\n",
+              static_cast<long long>(n), reps, scalar, vectorised, scalar / vectorised);
+}
+
 int main(int argc, char** argv) {
   lrf::keep_freed_memory();  // as the lrf binary does, so that the figures match its runs
   std::string which = "all";
@@ -152,6 +177,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  if (which == "a" || which == "all") adam_loops(quick ? 3 : 9);
   for (int threads : {1, 2}) {
     if (quick && threads == 1) continue;
     lrf::set_thread_count(threads);
