@@ -1,5 +1,6 @@
 #include <atomic>
 
+#include "lrf/core/cpu_features.h"
 #include "lrf/splat/raster/projection.h"
 #include "lrf/splat/raster/raster_kernels.h"
 #include "lrf/splat/raster/raster_widths.h"
@@ -25,7 +26,7 @@ const Kernels kAvx2{8, widths::forward_avx2, widths::backward_avx2, widths::proj
 // The kernels of that width, if this build has them and this CPU can run them.
 const Kernels* kernels_of_width(int width) {
 #if defined(LRF_AVX2_KERNELS)
-  if (width == 8) return __builtin_cpu_supports("avx2") ? &kAvx2 : nullptr;
+  if (width == 8) return cpu_has_avx2() ? &kAvx2 : nullptr;
 #endif
   if (width == kBaseline.width) return &kBaseline;
   if (width == 1) return &kScalar;

@@ -7,6 +7,7 @@
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 
+#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 
 namespace lrf::splat {
@@ -42,14 +43,6 @@ __attribute__((target("avx2"))) void adam_update_avx2(float* p, const float* g, 
     _mm256_storeu_ps(p + i, _mm256_sub_ps(_mm256_loadu_ps(p + i), _mm256_div_ps(_mm256_mul_ps(step, mi), den)));
   }
   for (; i < n; ++i) adam_element(p, g, m, v, i, s);
-}
-
-bool cpu_has_avx2() {
-  static const bool has = [] {
-    __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
-  }();
-  return has;
 }
 
 }  // namespace
