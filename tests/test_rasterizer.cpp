@@ -28,6 +28,7 @@
 #include <Eigen/Geometry>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <numeric>
 #include <random>
 
@@ -579,6 +580,72 @@ TEST(Rasterizer, EveryVectorWidthGivesTheSameResult) {
   EXPECT_TRUE(set_raster_vector_width(widest));
   EXPECT_FALSE(set_raster_vector_width(3));
   EXPECT_EQ(raster_vector_width(), widest);
+}
+
+// The projection's backward on its own, at every width: each lane does the same IEEE operations whatever
+// the width (no sums across lanes), so the gradients must agree to the bit. Gaussians without an upstream
+// gradient (every fourth here), culled or behind the camera must get zeros, and the others must not.
+TEST(Rasterizer, ProjectionBackwardGivesTheSameBitsAtEveryWidth) {
+  using lrf::splat::raster_vector_width;
+  using lrf::splat::set_raster_vector_width;
+  const int widest = raster_vector_width();
+  for (bool mip : {false, true}) {
+    Scene s = make_scene(203, 3, 0, 0, mip ? 71 : 70);  // 203 = 25 blocks of 8 and a tail of 3
+    lrf::splat::Viewpoint v;
+    v.width = s.settings.width, v.height = s.settings.height;
+    v.fx = s.settings.fx, v.fy = s.settings.fy, v.cx = s.settings.cx, v.cy = s.settings.cy;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) v.R[3 * r + c] = s.settings.R(r, c);
+      v.t[r] = s.settings.t(r);
+    }
+    v.mip_2d_filter = mip;
+    const int64_t n = s.means.size(0);
+    const float* means = s.means.data_ptr<float>();
+    const float* ls = s.log_scales.data_ptr<float>();
+    const float* q = s.quats.data_ptr<float>();
+    const float* lo = s.logits.data_ptr<float>();
+    std::vector<float> xy(2 * n), depth(n), conic(3 * n), opacity(n), extent(2 * n);
+    std::vector<int32_t> radii(n), rect(4 * n);
+    lrf::splat::project_forward(n, means, ls, q, lo, v,
+                                {xy.data(), depth.data(), conic.data(), opacity.data(), extent.data(), radii.data(),
+                                 rect.data()});
+    torch::manual_seed(9);
+    auto up = torch::randn({n, 7});
+    up.slice(0, 0, n, 4).zero_();
+    std::vector<float> g_xy(2 * n), g_conic(3 * n), g_op(n), g_z(n);
+    for (int64_t i = 0; i < n; ++i) {
+      const float* u = up[i].data_ptr<float>();
+      g_xy[2 * i] = u[0], g_xy[2 * i + 1] = u[1];
+      for (int k = 0; k < 3; ++k) g_conic[3 * i + k] = u[2 + k];
+      g_op[i] = u[5], g_z[i] = u[6];
+    }
+    auto run = [&](int width) {
+      EXPECT_TRUE(set_raster_vector_width(width));
+      std::vector<float> out(11 * n, -1.f);  // d means, d log-scales, d quats, d logits: all overwritten
+      lrf::splat::project_backward(n, means, ls, q, lo, radii.data(), v,
+                                   {g_xy.data(), g_conic.data(), g_op.data(), g_z.data()}, out.data(),
+                                   out.data() + 3 * n, out.data() + 6 * n, out.data() + 10 * n);
+      return out;
+    };
+    const std::vector<float> base = run(1);
+    int with_gradient = 0;
+    for (int64_t i = 0; i < n; ++i) {
+      float magnitude = 0;
+      for (int64_t off : {3 * i, 3 * i + 1, 3 * i + 2, 3 * n + 3 * i, 6 * n + 4 * i, 10 * n + i})
+        magnitude += std::abs(base[off]);
+      const bool expected = i % 4 != 0 && radii[i] != 0;
+      EXPECT_EQ(magnitude > 0, expected) << "Gaussian " << i << (mip ? " (mip)" : "");
+      with_gradient += magnitude > 0;
+    }
+    EXPECT_GT(with_gradient, n / 3);  // 3 in 4 have a gradient; some of those are culled
+    for (int width : {4, 8}) {
+      if (!set_raster_vector_width(width)) continue;
+      const std::vector<float> other = run(width);
+      EXPECT_EQ(std::memcmp(base.data(), other.data(), base.size() * sizeof(float)), 0)
+          << "width " << width << (mip ? " (mip)" : "");
+    }
+  }
+  EXPECT_TRUE(set_raster_vector_width(widest));
 }
 
 // Binning lists a Gaussian in Inria's tile rectangle cut down to the tiles its α box reaches. The cut may

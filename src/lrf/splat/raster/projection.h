@@ -1,8 +1,8 @@
 #pragma once
 // Per-Gaussian projection of 3D Gaussians to screen-space conics (EWA splatting with the 3DGS conventions)
 // and its exact backward. Plain loops over raw arrays, so that another backend can reuse the math: the
-// forward in projection_lanes.h (vector lanes), the backward in projection.cpp (one Gaussian at a time:
-// it only runs for the Gaussians that received a gradient).
+// forward in projection_lanes.h, the backward in projection_backward_lanes.h, both on vector lanes at the
+// width the compositing uses (raster_dispatch.cpp).
 #include <cstdint>
 
 namespace lrf::splat {
@@ -54,7 +54,8 @@ struct ProjectedGrads {
   const float* depth;    // [N]
 };
 
-// Overwrites d_means, d_log_scales, d_quats and d_opacity_logits (zeros for culled Gaussians).
+// Overwrites d_means, d_log_scales, d_quats and d_opacity_logits (zeros for culled Gaussians and for those
+// without an upstream gradient). Every width gives the same bits.
 void project_backward(int64_t n, const float* means, const float* log_scales, const float* quats,
                       const float* opacity_logits, const int32_t* radii, const Viewpoint& v,
                       const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,

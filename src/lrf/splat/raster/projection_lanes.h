@@ -1,8 +1,8 @@
 #pragma once
 // project_forward written against the vector interface of simd.h, kWidth Gaussians at a time, and
-// instantiated per width next to the compositing kernels (raster_width_*.cpp). The per-Gaussian math is
-// that of projection.cpp's compute_geometry (which the backward keeps, one Gaussian at a time); here it
-// runs on lanes, with the exponential and logarithm of simd.h so that every width gives the same bits.
+// instantiated per width next to the compositing kernels (raster_width_*.cpp). The backward
+// (projection_backward_lanes.h) recomputes the same geometry; both use the exponential and logarithm of
+// simd.h, so that every width gives the same bits.
 #include <omp.h>
 
 #include <algorithm>
@@ -79,8 +79,8 @@ void project_block(int64_t first, int count, const float* means, const float* lo
           s22 = sigma(2, 2);
   const F Sigma[9] = {s00, s01, s02, s01, s11, s12, s02, s12, s22};
 
-  // Jacobian with x/z and y/z clamped to 1.3× each side's extent of the image (as compute_geometry).
-  // The limits in float, as the backward's compute_geometry has them, so that both clamp the same lanes.
+  // Jacobian with x/z and y/z clamped to 1.3× each side's extent of the image. The limits in float, computed
+  // as the backward computes them, so that both clamp the same lanes.
   const float width = static_cast<float>(view.width), height = static_cast<float>(view.height);
   const F rx = V::min(V::max(V::div(p[0], z), V::set1(-(1.3f * cx / fx))), V::set1(1.3f * (width - cx) / fx));
   const F ry = V::min(V::max(V::div(p[1], z), V::set1(-(1.3f * cy / fy))), V::set1(1.3f * (height - cy) / fy));

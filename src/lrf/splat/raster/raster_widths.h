@@ -13,6 +13,10 @@ void forward_baseline(const RasterInputs& in, const ColorSource& source, const R
 void backward_baseline(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
 void project_baseline(int64_t n, const float* means, const float* log_scales, const float* quats,
                       const float* opacity_logits, const Viewpoint& view, const Projected& out);
+void project_backward_baseline(int64_t n, const float* means, const float* log_scales, const float* quats,
+                               const float* opacity_logits, const int32_t* radii, const Viewpoint& view,
+                               const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,
+                               float* d_opacity_logits);
 int baseline_width();
 
 // 1 lane, portable C++: what non-x86 builds run, kept selectable everywhere so that tests cover it.
@@ -20,11 +24,19 @@ void forward_scalar(const RasterInputs& in, const ColorSource& source, const Ras
 void backward_scalar(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
 void project_scalar(int64_t n, const float* means, const float* log_scales, const float* quats,
                     const float* opacity_logits, const Viewpoint& view, const Projected& out);
+void project_backward_scalar(int64_t n, const float* means, const float* log_scales, const float* quats,
+                             const float* opacity_logits, const int32_t* radii, const Viewpoint& view,
+                             const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,
+                             float* d_opacity_logits);
 
 // 8 lanes; exists when the build has the AVX2 file (LRF_AVX2_KERNELS), to be called only on CPUs with AVX2.
 void forward_avx2(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out);
 void backward_avx2(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
 void project_avx2(int64_t n, const float* means, const float* log_scales, const float* quats,
                   const float* opacity_logits, const Viewpoint& view, const Projected& out);
+void project_backward_avx2(int64_t n, const float* means, const float* log_scales, const float* quats,
+                           const float* opacity_logits, const int32_t* radii, const Viewpoint& view,
+                           const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,
+                           float* d_opacity_logits);
 
 }  // namespace lrf::splat::widths
