@@ -29,7 +29,11 @@ const Window& window() {
 // Zero-padded separable blur of one h x w plane (symmetric window: also its own adjoint). Each pass adds
 // the taps in the same order for every pixel, out-of-image taps as exact zeros, so that the loops over x
 // vectorise; tmp holds h·w floats and row w + 2·kRadius.
-void blur_plane(const float* in, float* __restrict out, float* __restrict tmp, float* __restrict row, int h, int w) {
+// Also compiled for AVX2 and picked at load time where the CPU has it: 8 lanes instead of SSE2's 4, the same
+// multiplies and adds per element (no FMA), so the same bits.
+__attribute__((target_clones("avx2", "default"))) void blur_plane(const float* in, float* __restrict out,
+                                                                 float* __restrict tmp, float* __restrict row,
+                                                                 int h, int w) {
   const float* k = window().w;
   std::fill(row, row + kRadius, 0.f);
   std::fill(row + kRadius + w, row + w + 2 * kRadius, 0.f);
