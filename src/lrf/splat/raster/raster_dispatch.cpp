@@ -8,37 +8,30 @@
 namespace lrf::splat {
 namespace {
 
-struct Kernels {
-  int width;
-  void (*forward)(const RasterInputs&, const ColorSource&, const RasterForwardOutputs&);
-  void (*backward)(int64_t, const RasterInputs&, const RasterBackwardInputs&, const RasterGrads&);
-  void (*project)(int64_t, const float*, const float*, const float*, const float*, const Viewpoint&,
-                  const Projected&);
-  void (*project_backward)(int64_t, const float*, const float*, const float*, const float*, const int32_t*,
-                           const Viewpoint&, const ProjectedGrads&, float*, float*, float*, float*);
-};
+using widths::KernelSet;
 
-const Kernels kScalar{1, widths::forward_scalar, widths::backward_scalar, widths::project_scalar,
-                       widths::project_backward_scalar};
-const Kernels kBaseline{widths::baseline_width(), widths::forward_baseline, widths::backward_baseline,
-                         widths::project_baseline, widths::project_backward_baseline};
-#if defined(LRF_AVX2_KERNELS)
-const Kernels kAvx2{8, widths::forward_avx2, widths::backward_avx2, widths::project_avx2,
-                     widths::project_backward_avx2};
-#endif
+const KernelSet& baseline() {
+  static const KernelSet kernels = widths::baseline_kernels();
+  return kernels;
+}
 
 // The kernels of that width, if this build has them and this CPU can run them.
-const Kernels* kernels_of_width(int width) {
+const KernelSet* kernels_of_width(int width) {
 #if defined(LRF_AVX2_KERNELS)
-  if (width == 8) return cpu_has_avx2() ? &kAvx2 : nullptr;
+  if (width == 8) {
+    if (!cpu_has_avx2()) return nullptr;
+    static const KernelSet avx2 = widths::avx2_kernels();
+    return &avx2;
+  }
 #endif
-  if (width == kBaseline.width) return &kBaseline;
-  if (width == 1) return &kScalar;
+  static const KernelSet scalar = widths::scalar_kernels();
+  if (width == baseline().width) return &baseline();
+  if (width == 1) return &scalar;
   return nullptr;
 }
 
-std::atomic<const Kernels*>& chosen() {
-  static std::atomic<const Kernels*> kernels{kernels_of_width(8) ? kernels_of_width(8) : &kBaseline};
+std::atomic<const KernelSet*>& chosen() {
+  static std::atomic<const KernelSet*> kernels{kernels_of_width(8) ? kernels_of_width(8) : &baseline()};
   return kernels;
 }
 
@@ -47,7 +40,7 @@ std::atomic<const Kernels*>& chosen() {
 int raster_vector_width() { return chosen().load()->width; }
 
 bool set_raster_vector_width(int width) {
-  const Kernels* k = kernels_of_width(width);
+  const KernelSet* k = kernels_of_width(width);
   if (k) chosen().store(k);
   return k != nullptr;
 }

@@ -1,6 +1,6 @@
 #pragma once
-// The compositing kernels of raster_tiles.h compiled at each vector width (one source file per width, so
-// that only the AVX2 one is built with -mavx2). raster_dispatch.cpp picks one at run time.
+// The compositing and projection kernels compiled at each vector width (one source file per width, so
+// that only the AVX2 one is built with -mavx2). raster_dispatch.cpp picks one set at run time.
 #include <cstdint>
 
 #include "lrf/splat/raster/projection.h"
@@ -8,35 +8,23 @@
 
 namespace lrf::splat::widths {
 
+// Every kernel of one width.
+struct KernelSet {
+  int width;
+  void (*forward)(const RasterInputs&, const ColorSource&, const RasterForwardOutputs&);
+  void (*backward)(int64_t, const RasterInputs&, const RasterBackwardInputs&, const RasterGrads&);
+  void (*project)(int64_t, const float*, const float*, const float*, const float*, const Viewpoint&,
+                  const Projected&);
+  void (*project_backward)(int64_t, const float*, const float*, const float*, const float*, const int32_t*,
+                           const Viewpoint&, const ProjectedGrads&, float*, float*, float*, float*);
+};
+
 // 4 lanes (SSE2) on x86-64, 1 lane elsewhere.
-void forward_baseline(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out);
-void backward_baseline(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
-void project_baseline(int64_t n, const float* means, const float* log_scales, const float* quats,
-                      const float* opacity_logits, const Viewpoint& view, const Projected& out);
-void project_backward_baseline(int64_t n, const float* means, const float* log_scales, const float* quats,
-                               const float* opacity_logits, const int32_t* radii, const Viewpoint& view,
-                               const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,
-                               float* d_opacity_logits);
-int baseline_width();
-
+KernelSet baseline_kernels();
 // 1 lane, portable C++: what non-x86 builds run, kept selectable everywhere so that tests cover it.
-void forward_scalar(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out);
-void backward_scalar(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
-void project_scalar(int64_t n, const float* means, const float* log_scales, const float* quats,
-                    const float* opacity_logits, const Viewpoint& view, const Projected& out);
-void project_backward_scalar(int64_t n, const float* means, const float* log_scales, const float* quats,
-                             const float* opacity_logits, const int32_t* radii, const Viewpoint& view,
-                             const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,
-                             float* d_opacity_logits);
-
-// 8 lanes; exists when the build has the AVX2 file (LRF_AVX2_KERNELS), to be called only on CPUs with AVX2.
-void forward_avx2(const RasterInputs& in, const ColorSource& source, const RasterForwardOutputs& out);
-void backward_avx2(int64_t n, const RasterInputs& in, const RasterBackwardInputs& bin, const RasterGrads& out);
-void project_avx2(int64_t n, const float* means, const float* log_scales, const float* quats,
-                  const float* opacity_logits, const Viewpoint& view, const Projected& out);
-void project_backward_avx2(int64_t n, const float* means, const float* log_scales, const float* quats,
-                           const float* opacity_logits, const int32_t* radii, const Viewpoint& view,
-                           const ProjectedGrads& g, float* d_means, float* d_log_scales, float* d_quats,
-                           float* d_opacity_logits);
+KernelSet scalar_kernels();
+// 8 lanes; exists when the build has the AVX2 file (LRF_AVX2_KERNELS). Its code is compiled with -mavx2, so
+// even this call may use AVX2 instructions: call it only on CPUs with AVX2.
+KernelSet avx2_kernels();
 
 }  // namespace lrf::splat::widths
