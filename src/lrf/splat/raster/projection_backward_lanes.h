@@ -1,8 +1,9 @@
 #pragma once
 // project_backward written against the vector interface of simd.h, kWidth Gaussians at a time, and
 // instantiated per width next to the forward (projection_lanes.h). It recomputes the forward's geometry
-// (mean in camera space, rotation, Σ, the clamped Jacobian, the dilated Σ2) instead of storing it, then
-// applies the chain rule back to the means, log-scales, quaternions and opacity logits. On a trained
+// (projection_geometry_lanes.h: mean in camera space, rotation, Σ, the clamped Jacobian, the dilated Σ2)
+// instead of storing it, then applies the chain rule back to the means, log-scales, quaternions and
+// opacity logits. On a trained
 // field nearly every visible Gaussian gets a gradient (fern's 7k latent field: 42.6k of 44k per view), so
 // this runs on most rows; one Gaussian at a time it held 7 % of a latent training step.
 //
@@ -12,9 +13,9 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <limits>
 
 #include "lrf/splat/raster/projection.h"
+#include "lrf/splat/raster/projection_geometry_lanes.h"
 #include "lrf/splat/raster/simd.h"
 
 namespace lrf::splat::lanes {
@@ -93,72 +94,26 @@ void project_backward_block(int64_t first, int count, const float* means, const 
   if (!any_lane) return;
 
   auto load = [](const float* p) { return N{V::load(p)}; };
-  auto all = [](double x) { return N::all(static_cast<float>(x)); };
   const N zero{V::zero()}, one = N::all(1.f), two = N::all(2.f), half = N::all(0.5f);
   N W[9];
-  for (int k = 0; k < 9; ++k) W[k] = all(view.R[k]);
-  const float fx_f = static_cast<float>(view.fx), fy_f = static_cast<float>(view.fy);
-  const float cx_f = static_cast<float>(view.cx), cy_f = static_cast<float>(view.cy);
-  const N fx = N::all(fx_f), fy = N::all(fy_f);
+  for (int k = 0; k < 9; ++k) W[k] = N::all(static_cast<float>(view.R[k]));
+  const N fx = N::all(static_cast<float>(view.fx)), fy = N::all(static_cast<float>(view.fy));
 
-  // The forward's geometry (projection_lanes.h), kept in full where the backward needs its parts.
-  const N mu[3] = {load(in[0]), load(in[1]), load(in[2])};
-  N p[3];
-  for (int r = 0; r < 3; ++r) p[r] = W[3 * r] * mu[0] + W[3 * r + 1] * mu[1] + W[3 * r + 2] * mu[2] + all(view.t[r]);
-  const N z = p[2];
-  F ok = V::cmpge(z.v, V::set1(static_cast<float>(view.near)));
-  const N q[4] = {load(in[6]), load(in[7]), load(in[8]), load(in[9])};
-  const N qlen{V::sqrt((q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]).v)};
-  ok = V::and_(ok, V::and_(V::cmpgt(qlen.v, V::zero()),
-                           V::cmple(qlen.v, V::set1(std::numeric_limits<float>::max()))));
-  const N qn[4] = {q[0] / qlen, q[1] / qlen, q[2] / qlen, q[3] / qlen};
-  const N qw = qn[0], qx = qn[1], qy = qn[2], qz = qn[3];
-  const N Rq[9] = {one - two * (qy * qy + qz * qz), two * (qx * qy - qw * qz), two * (qx * qz + qw * qy),
-                   two * (qx * qy + qw * qz), one - two * (qx * qx + qz * qz), two * (qy * qz - qw * qx),
-                   two * (qx * qz - qw * qy), two * (qy * qz + qw * qx), one - two * (qx * qx + qy * qy)};
-  N s[3], M[9];
-  for (int k = 0; k < 3; ++k) s[k] = N{simd::exp_any<V>(V::load(in[3 + k]))};
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) M[3 * r + k] = Rq[3 * r + k] * s[k];
-  N Sigma[9];
-  for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) Sigma[3 * r + k] = M[3 * r] * M[3 * k] + M[3 * r + 1] * M[3 * k + 1] + M[3 * r + 2] * M[3 * k + 2];
-
-  // x/z and y/z clamped to 1.3× each side's extent of the image; no gradient flows through a clamped one.
-  const float width = static_cast<float>(view.width), height = static_cast<float>(view.height);
-  auto clamp_ratio = [&](N num, float lim_neg, float lim_pos, N* r, N* dr_dnum, N* dr_dz) {
-    const N ratio = num / z;
-    const F inside = V::and_(V::cmpge(ratio.v, V::set1(-lim_neg)), V::cmple(ratio.v, V::set1(lim_pos)));
-    *r = N{V::min(V::max(ratio.v, V::set1(-lim_neg)), V::set1(lim_pos))};
-    *dr_dnum = where<V>(inside, one / z);
-    *dr_dz = where<V>(inside, -num / (z * z));
+  // The forward's geometry, in the operator form of the chain rule below.
+  const LaneGeometry<V> geo = lane_geometry<V>(in, view);
+  const F ok = geo.valid, comp_moves = geo.comp_moves;
+  auto wrap = [](const F* from, N* to, int count) {
+    for (int k = 0; k < count; ++k) to[k] = N{from[k]};
   };
-  N rx, drx_dx, drx_dz, ry, dry_dy, dry_dz;
-  clamp_ratio(p[0], 1.3f * cx_f / fx_f, 1.3f * (width - cx_f) / fx_f, &rx, &drx_dx, &drx_dz);
-  clamp_ratio(p[1], 1.3f * cy_f / fy_f, 1.3f * (height - cy_f) / fy_f, &ry, &dry_dy, &dry_dz);
-  const N J00 = fx / z, J02 = -(fx * rx) / z, J11 = fy / z, J12 = -(fy * ry) / z;
-  N T[6];
-  for (int k = 0; k < 3; ++k) {
-    T[k] = J00 * W[k] + J02 * W[6 + k];
-    T[3 + k] = J11 * W[3 + k] + J12 * W[6 + k];
-  }
-  N TS[6];  // T·Σ
-  for (int r = 0; r < 2; ++r)
-    for (int k = 0; k < 3; ++k) TS[3 * r + k] = T[3 * r] * Sigma[k] + T[3 * r + 1] * Sigma[3 + k] + T[3 * r + 2] * Sigma[6 + k];
-  const N a0 = TS[0] * T[0] + TS[1] * T[1] + TS[2] * T[2];
-  const N b0 = TS[0] * T[3] + TS[1] * T[4] + TS[2] * T[5];
-  const N c0 = TS[3] * T[3] + TS[4] * T[4] + TS[5] * T[5];
-  const N dilation = all(view.dilation);
-  const N a = a0 + dilation, b = b0, c = c0 + dilation;
-  const N det = a * c - b * b;
-  ok = V::and_(ok, V::cmpgt(det.v, V::zero()));
-  N comp = one;
-  F comp_moves = V::zero();  // lanes where the Mip compensation is above its floor
-  if (view.mip_2d_filter) {
-    const N ratio = (a0 * c0 - b0 * b0) / det;
-    comp_moves = V::cmpgt(ratio.v, V::set1(kMinMipRatio));
-    comp = N{V::sqrt(V::max(ratio.v, V::set1(kMinMipRatio)))};
-  }
+  N p[3], qn[4], Rq[9], s[3], M[9], T[6], TS[6];
+  wrap(geo.p, p, 3), wrap(geo.qn, qn, 4), wrap(geo.Rq, Rq, 9), wrap(geo.s, s, 3), wrap(geo.M, M, 9);
+  wrap(geo.T, T, 6), wrap(geo.TS, TS, 6);
+  const N z = p[2], qlen{geo.qlen}, rx{geo.rx}, ry{geo.ry};
+  const N a0{geo.a0}, b0{geo.b0}, c0{geo.c0}, a{geo.a}, b{geo.b}, c{geo.c}, det{geo.det}, comp{geo.comp};
+  const N qw = qn[0], qx = qn[1], qy = qn[2], qz = qn[3];
+  // Derivatives of the clamped ratios x/z and y/z (none where clamped).
+  const N drx_dx = where<V>(geo.inside_x, one / z), drx_dz = where<V>(geo.inside_x, -p[0] / (z * z));
+  const N dry_dy = where<V>(geo.inside_y, one / z), dry_dz = where<V>(geo.inside_y, -p[1] / (z * z));
 
   // Opacity: o = sigmoid(logit)·comp.
   const N sig = one / (one + N{simd::exp_any<V>(V::sub(V::zero(), V::load(in[10])))});

@@ -1,15 +1,15 @@
 #pragma once
 // project_forward written against the vector interface of simd.h, kWidth Gaussians at a time, and
-// instantiated per width next to the compositing kernels (raster_width_*.cpp). The backward
-// (projection_backward_lanes.h) recomputes the same geometry; both use the exponential and logarithm of
-// simd.h, so that every width gives the same bits.
+// instantiated per width next to the compositing kernels (raster_width_*.cpp). The geometry
+// (projection_geometry_lanes.h) is shared with the backward; everything uses the exponential and logarithm
+// of simd.h, so that every width gives the same bits.
 #include <omp.h>
 
 #include <algorithm>
 #include <cstdint>
-#include <limits>
 
 #include "lrf/splat/raster/projection.h"
+#include "lrf/splat/raster/projection_geometry_lanes.h"
 #include "lrf/splat/raster/raster_kernels.h"
 #include "lrf/splat/raster/simd.h"
 
@@ -33,80 +33,13 @@ void project_block(int64_t first, int count, const float* means, const float* lo
     in[10][k] = opacity_logits[i];
   }
   const F zero = V::zero(), one = V::set1(1.f), two = V::set1(2.f);
-  auto c = [](double v) { return V::set1(static_cast<float>(v)); };
-  float W[9];
-  for (int k = 0; k < 9; ++k) W[k] = static_cast<float>(view.R[k]);
+  const LaneGeometry<V> g = lane_geometry<V>(in, view);
+  F valid = g.valid;
+  const F z = g.p[2], a = g.a, b = g.b, cc = g.c, det = g.det, comp = g.comp;
+  const F* p = g.p;
   const float fx = static_cast<float>(view.fx), fy = static_cast<float>(view.fy);
   const float cx = static_cast<float>(view.cx), cy = static_cast<float>(view.cy);
-
-  // Camera-space mean.
-  const F mx = V::load(in[0]), my = V::load(in[1]), mz = V::load(in[2]);
-  F p[3];
-  for (int r = 0; r < 3; ++r)
-    p[r] = V::add(V::add(V::add(V::mul(V::set1(W[3 * r]), mx), V::mul(V::set1(W[3 * r + 1]), my)),
-                         V::mul(V::set1(W[3 * r + 2]), mz)),
-                  c(view.t[r]));
-  const F z = p[2];
-  F valid = V::cmpge(z, c(view.near));
-
-  // Rotation from the normalised quaternion (w, x, y, z).
-  const F q0 = V::load(in[6]), q1 = V::load(in[7]), q2 = V::load(in[8]), q3 = V::load(in[9]);
-  const F qlen = V::sqrt(V::add(V::add(V::add(V::mul(q0, q0), V::mul(q1, q1)), V::mul(q2, q2)), V::mul(q3, q3)));
-  valid = V::and_(valid, V::and_(V::cmpgt(qlen, zero), V::cmple(qlen, V::set1(std::numeric_limits<float>::max()))));
-  const F qw = V::div(q0, qlen), qx = V::div(q1, qlen), qy = V::div(q2, qlen), qz = V::div(q3, qlen);
-  const F Rq[9] = {
-      V::sub(one, V::mul(two, V::add(V::mul(qy, qy), V::mul(qz, qz)))),
-      V::mul(two, V::sub(V::mul(qx, qy), V::mul(qw, qz))),
-      V::mul(two, V::add(V::mul(qx, qz), V::mul(qw, qy))),
-      V::mul(two, V::add(V::mul(qx, qy), V::mul(qw, qz))),
-      V::sub(one, V::mul(two, V::add(V::mul(qx, qx), V::mul(qz, qz)))),
-      V::mul(two, V::sub(V::mul(qy, qz), V::mul(qw, qx))),
-      V::mul(two, V::sub(V::mul(qx, qz), V::mul(qw, qy))),
-      V::mul(two, V::add(V::mul(qy, qz), V::mul(qw, qx))),
-      V::sub(one, V::mul(two, V::add(V::mul(qx, qx), V::mul(qy, qy)))),
-  };
-  // Σ = M·Mᵀ with M = Rq·S (symmetric: six entries).
-  F M[9];
-  for (int k = 0; k < 3; ++k) {
-    const F s = simd::exp_any<V>(V::load(in[3 + k]));
-    for (int r = 0; r < 3; ++r) M[3 * r + k] = V::mul(Rq[3 * r + k], s);
-  }
-  auto sigma = [&](int r, int k) {
-    return V::add(V::add(V::mul(M[3 * r], M[3 * k]), V::mul(M[3 * r + 1], M[3 * k + 1])),
-                  V::mul(M[3 * r + 2], M[3 * k + 2]));
-  };
-  const F s00 = sigma(0, 0), s01 = sigma(0, 1), s02 = sigma(0, 2), s11 = sigma(1, 1), s12 = sigma(1, 2),
-          s22 = sigma(2, 2);
-  const F Sigma[9] = {s00, s01, s02, s01, s11, s12, s02, s12, s22};
-
-  // Jacobian with x/z and y/z clamped to 1.3× each side's extent of the image. The limits in float, computed
-  // as the backward computes them, so that both clamp the same lanes.
-  const float width = static_cast<float>(view.width), height = static_cast<float>(view.height);
-  const F rx = V::min(V::max(V::div(p[0], z), V::set1(-(1.3f * cx / fx))), V::set1(1.3f * (width - cx) / fx));
-  const F ry = V::min(V::max(V::div(p[1], z), V::set1(-(1.3f * cy / fy))), V::set1(1.3f * (height - cy) / fy));
   const F vfx = V::set1(fx), vfy = V::set1(fy);
-  const F J00 = V::div(vfx, z), J02 = V::div(V::sub(zero, V::mul(vfx, rx)), z);
-  const F J11 = V::div(vfy, z), J12 = V::div(V::sub(zero, V::mul(vfy, ry)), z);
-  F T[6];
-  for (int k = 0; k < 3; ++k) {
-    T[k] = V::add(V::mul(J00, V::set1(W[k])), V::mul(J02, V::set1(W[6 + k])));
-    T[3 + k] = V::add(V::mul(J11, V::set1(W[3 + k])), V::mul(J12, V::set1(W[6 + k])));
-  }
-  F TS[6];
-  for (int r = 0; r < 2; ++r)
-    for (int k = 0; k < 3; ++k)
-      TS[3 * r + k] = V::add(V::add(V::mul(T[3 * r], Sigma[k]), V::mul(T[3 * r + 1], Sigma[3 + k])),
-                             V::mul(T[3 * r + 2], Sigma[6 + k]));
-  const F a0 = V::add(V::add(V::mul(TS[0], T[0]), V::mul(TS[1], T[1])), V::mul(TS[2], T[2]));
-  const F b0 = V::add(V::add(V::mul(TS[0], T[3]), V::mul(TS[1], T[4])), V::mul(TS[2], T[5]));
-  const F c0 = V::add(V::add(V::mul(TS[3], T[3]), V::mul(TS[4], T[4])), V::mul(TS[5], T[5]));
-  const F dilation = c(view.dilation);
-  const F a = V::add(a0, dilation), b = b0, cc = V::add(c0, dilation);
-  const F det = V::sub(V::mul(a, cc), V::mul(b, b));
-  valid = V::and_(valid, V::cmpgt(det, zero));
-  F comp = one;
-  if (view.mip_2d_filter)
-    comp = V::sqrt(V::max(V::div(V::sub(V::mul(a0, c0), V::mul(b0, b0)), det), V::set1(kMinMipRatio)));
 
   // Screen position, radius (Inria's ⌈3·√λmax⌉) and the tile rectangle in Inria's pixel coordinates.
   const F u = V::add(V::div(V::mul(vfx, p[0]), z), V::set1(cx));
