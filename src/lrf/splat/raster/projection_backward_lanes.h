@@ -3,9 +3,9 @@
 // instantiated per width next to the forward (projection_lanes.h). It recomputes the forward's geometry
 // (projection_geometry_lanes.h: mean in camera space, rotation, Σ, the clamped Jacobian, the dilated Σ2)
 // instead of storing it, then applies the chain rule back to the means, log-scales, quaternions and
-// opacity logits. On a trained
-// field nearly every visible Gaussian gets a gradient (fern's 7k latent field: 42.6k of 44k per view), so
-// this runs on most rows; one Gaussian at a time it held 7 % of a latent training step.
+// opacity logits. On a trained field nearly every visible Gaussian gets a gradient (fern's 7k latent
+// field: 42.6k of 44k per view), so this runs on most rows; one Gaussian at a time it held 7 % of a latent
+// training step.
 //
 // Lanes whose Gaussian got no gradient, was culled (radius 0) or is degenerate write zeros. The math is
 // float, as in the forward; the exponentials are simd.h's, so every width gives the same bits.
