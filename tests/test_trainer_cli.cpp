@@ -100,3 +100,34 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   EXPECT_NE(r.output.find("point_cloud.ply"), std::string::npos) << r.output;
   fs::remove_all(root);
 }
+
+// --densify-grad reaches the densifier (a threshold no Gaussian reaches grows nothing, the default grows
+// the field), is recorded and kept by --resume, and must be positive.
+TEST(TrainerCli, DensifyGradControlsTheFieldsGrowth) {
+  const fs::path root = fs::temp_directory_path() / "lrf_test_densify_grad";
+  fs::remove_all(root);
+  const std::string scene = (root / "scene").string();
+  auto r = lrf_run("scene synth -o " + scene + " --views 10 --size 48x36 --points 600");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string grown = (root / "grown").string(), frozen = (root / "frozen").string();
+  r = lrf_run("-q train " + scene + " -o " + grown + " --iters 200 --sh-degree 0");
+  ASSERT_EQ(r.code, 0) << r.output;
+  r = lrf_run("-q train " + scene + " -o " + frozen + " --iters 200 --sh-degree 0 --densify-grad 1e9");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto a = lrf::read_json_file(grown + "/config.json"), b = lrf::read_json_file(frozen + "/config.json");
+  const int start = b["init_points"]["points"].get<int>();
+  EXPECT_GT(a["result"]["gaussians"].get<int>(), start);
+  EXPECT_LE(b["result"]["gaussians"].get<int>(), start);
+  EXPECT_EQ(b["options"]["densify_grad"].get<double>(), 1e9);
+
+  r = lrf_run("-q train " + scene + " -o " + frozen + " --iters 220 --resume");
+  ASSERT_EQ(r.code, 0) << r.output;
+  const auto c = lrf::read_json_file(frozen + "/config.json");
+  EXPECT_EQ(c["options"]["densify_grad"].get<double>(), 1e9);
+  EXPECT_LE(c["result"]["gaussians"].get<int>(), start);
+
+  r = lrf_run("train " + scene + " -o " + (root / "bad").string() + " --densify-grad 0");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("--densify-grad"), std::string::npos) << r.output;
+  fs::remove_all(root);
+}

@@ -31,6 +31,7 @@ struct TrainOptions {
   bool mip = false;
   uint64_t seed = 0;
   int64_t max_gaussians = 0;
+  double densify_grad = lrf::splat::DensifyOptions{}.grad_threshold;
   bool resume = false;
   bool force = false;
   int64_t checkpoint_every = 1000;
@@ -71,6 +72,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.sh_degree = o.sh_degree_set ? o.sh_degree : lrf::kDefaultLatentShDegree;
   l.iters = o.iters;
   l.max_gaussians = o.max_gaussians;
+  l.densify_grad = o.densify_grad;
   l.checkpoint_every = o.checkpoint_every;
   l.seed = o.seed;
   l.resume = o.resume;
@@ -83,8 +85,9 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
 }
 
 int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) {
-  if (o.mip || o.sh_degree_set || o.max_gaussians || o.sparse_adam || o.white_background || o.init != "latents")
-    lrf::fail("--mip, --sh-degree, --max-gaussians, --sparse-adam, --white-background and --init apply to Gaussian "
+  if (o.mip || o.sh_degree_set || o.max_gaussians || o.sparse_adam || o.white_background || o.init != "latents" ||
+      o.densify_grad != lrf::splat::DensifyOptions{}.grad_threshold)
+    lrf::fail("--mip, --sh-degree, --max-gaussians, --densify-grad, --sparse-adam, --white-background and --init apply to Gaussian "
               "fields, not to --space latent-nerf");
   if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
     lrf::fail("--test-list, --crop8 and --format are not available with --space latent-nerf (latent views are always "
@@ -131,7 +134,7 @@ nlohmann::json to_json(const TrainOptions& o) {
           {"test_list", o.scene_options.test_list},
           {"format", o.scene_options.format}, {"crop8", o.scene_options.crop_to_multiple_of_8}, {"iters", o.iters},
           {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
-          {"max_gaussians", o.max_gaussians}, {"resume", o.resume}, {"force", o.force},
+          {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"resume", o.resume}, {"force", o.force},
           {"checkpoint_every", o.checkpoint_every},
           {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background},
           {"feature_dim", o.feature_dim},
@@ -159,6 +162,7 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
     o.sh_degree_set = true;
     o.seed = j.at("seed").get<uint64_t>();
     o.max_gaussians = j.at("max_gaussians").get<int64_t>();
+    o.densify_grad = j.value("densify_grad", lrf::splat::DensifyOptions{}.grad_threshold);  // runs before the option
     o.sparse_adam = j.at("sparse_adam").get<bool>();
     if (!iters_given) o.iters = j.at("iters").get<int64_t>();
     if (!checkpoint_given) o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
@@ -206,6 +210,7 @@ int run_train(const TrainOptions& o) {
   if (o.feature_dim != 0) fail("--feature-dim applies to --space latent (a feature field lifted to the latent)");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
+  if (!(o.densify_grad > 0)) fail("--densify-grad must be positive");
   if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
   const auto lock = prepare_output_dir(o.out, o.force, o.resume);
 
@@ -226,6 +231,7 @@ int run_train(const TrainOptions& o) {
   to.sparse_adam = o.sparse_adam;
   to.schedule = DensifySchedule::for_iterations(o.iters);
   to.densify.max_gaussians = o.max_gaussians;
+  to.densify.grad_threshold = o.densify_grad;
   const float bg = o.white_background ? 1.0f : 0.0f;
   to.background = torch::full({3}, bg);
   const double extent = scene.camera_extent();
@@ -322,6 +328,10 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_flag("--mip", o->mip, "Mip-Splatting: 3D smoothing filter and 2D Mip filter");
   cmd->add_option("--seed", o->seed, "Random seed (view order, initialisation, splits)")->capture_default_str();
   cmd->add_option("--max-gaussians", o->max_gaussians, "Cap on the number of Gaussians (0 = none)")
+      ->capture_default_str();
+  cmd->add_option("--densify-grad", o->densify_grad,
+                  "Mean screen-space gradient (NDC units) above which a Gaussian is cloned or split; higher grows "
+                  "a smaller field (Inria's 2e-4)")
       ->capture_default_str();
   cmd->add_flag("--resume", o->resume,
                 "Continue the run in the output folder from its last checkpoint, with its recorded settings "

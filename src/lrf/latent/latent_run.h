@@ -18,6 +18,7 @@
 #include "lrf/scene/scene.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/render_field.h"
+#include "lrf/splat/train/densify.h"
 
 namespace lrf {
 
@@ -42,6 +43,7 @@ struct LatentTrainOptions {
   // kHalfLatentChannels: Feature 3DGS's default, half the autoencoder's latent channels.
   int feature_dim = 0;
   int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
+  double densify_grad = splat::DensifyOptions{}.grad_threshold;
   uint64_t seed = 0;
   bool resume = false, force = false, sparse_adam = false;
   InitPointsOptions init_points;  // where the initial Gaussians come from (SfM, triangulated, random, a file)

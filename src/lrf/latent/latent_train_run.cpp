@@ -25,7 +25,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
           {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
           {"downscale", o.downscale}, {"test_every", o.test_every}, {"train_views", o.train_views},
           {"feature_dim", o.feature_dim}, {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
-          {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"seed", o.seed},
+          {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
           {"checkpoint_every", o.checkpoint_every}};
 }
@@ -35,6 +35,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   using namespace lrf::splat;
   if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
   if (o.iters < 1) fail("--iters must be at least 1");
+  if (!(o.densify_grad > 0)) fail("--densify-grad must be positive");
   if (!(o.rgb_guide >= 0)) fail("--rgb-guide must be 0 (off) or a positive weight");
   LatentInit init = parse_latent_init(o.init);
   if (o.feature_dim != 0 && o.feature_dim != kHalfLatentChannels && (o.feature_dim < 1 || o.feature_dim > kMaxFeatureDim))
@@ -74,6 +75,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   to.sparse_adam = o.sparse_adam;
   to.schedule = DensifySchedule::for_iterations(o.iters);
   to.densify.max_gaussians = o.max_gaussians;
+  to.densify.grad_threshold = o.densify_grad;
   to.background = torch::zeros({feature_dim > 0 ? feature_dim : data.init.channels()});
   const double extent = scene.camera_extent();
   if (lift) {
