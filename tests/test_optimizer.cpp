@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include "lrf/core/error.h"
 #include "lrf/splat/train/optimizer.h"
 
 using namespace lrf::splat;
@@ -100,4 +101,33 @@ TEST(GaussianAdam, VectorLoopMatchesScalarLoopBitForBit) {
   EXPECT_TRUE(torch::equal(p0, p1));
   EXPECT_TRUE(torch::equal(m0, m1));
   EXPECT_TRUE(torch::equal(v0, v1));
+}
+
+// The row-by-row SH update: rows fed to the sink give step()'s result with an SH gradient tensor, bit for
+// bit (inactive bands untouched); an SH gradient that arrives anyway is an error, not a second update.
+TEST(GaussianAdam, ShRowUpdateEqualsTheTensorUpdateAndRefusesAStrayGradient) {
+  auto a = field(37, 5, 2), b = a.clone();
+  b.make_leaves();
+  GaussianAdam adam_a(a, LearningRates{}, 1.0, 10), adam_b(b, LearningRates{}, 1.0, 10);
+  torch::manual_seed(2);
+  for (int step = 0; step < 3; ++step) {
+    std::vector<torch::Tensor> grads;
+    for (auto* p : a.parameters()) grads.push_back(torch::randn_like(*p));
+    for (size_t k = 0; k < grads.size(); ++k) a.parameters()[k]->mutable_grad() = grads[k].clone();
+    adam_a.step(a, /*active_sh_degree=*/1);
+    const ShGradientSink& sink = adam_b.sh_row_update(b, 1);
+    for (int64_t row = 36; row >= 0; --row) sink.consume(sink.context, row, grads[4][row].contiguous().data_ptr<float>());
+    for (size_t k = 0; k < 4; ++k) b.parameters()[k]->mutable_grad() = grads[k].clone();
+    adam_b.step(b, 1);
+  }
+  auto pa = a.parameters(), pb = b.parameters();
+  for (size_t k = 0; k < pa.size(); ++k) EXPECT_TRUE(torch::equal(*pa[k], *pb[k])) << k;
+  const auto sa = adam_a.state(), sb = adam_b.state();
+  for (size_t k = 0; k < sa.size(); ++k) EXPECT_TRUE(torch::equal(sa[k], sb[k])) << k;
+
+  adam_b.sh_row_update(b, 1);
+  b.sh.mutable_grad() = torch::ones_like(b.sh);
+  EXPECT_THROW(adam_b.step(b, 1), lrf::Error);
+  adam_b.sparse = true;
+  EXPECT_THROW(adam_b.sh_row_update(b, 1), lrf::Error);
 }

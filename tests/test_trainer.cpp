@@ -137,6 +137,45 @@ TEST(Trainer, ResumedRunEqualsUninterruptedRun) {
   fs::remove_all(dir);
 }
 
+// The SH rows updated inside the render backward (the default) against Adam reading a gradient tensor
+// after it: the same field bit for bit, through SH degree increases, densification (rows cloned, split,
+// pruned and reordered, their moments with them) and an opacity reset; for RGB at SH degree 3 and for
+// 32 latent-like channels at degree 1.
+TEST(Trainer, ShUpdateInTheBackwardEqualsAdamAfterIt) {
+  for (const auto& [channels, degree] : std::vector<std::pair<int, int>>{{3, 3}, {32, 1}}) {
+    auto scene = make_scene(channels, 8, 32, 24);
+    auto options = short_options(90);
+    options.schedule.from = 10;
+    options.schedule.interval = 20;
+    options.schedule.until = 70;
+    options.schedule.opacity_reset_every = 50;
+    options.schedule.sh_degree_every = 20;
+    options.sh_degree = degree;
+    auto field = [channels = channels, degree = degree] {
+      auto xyz = random_points(300, Eigen::Vector3d::Zero(), 1.0, 5);
+      return gaussians_from_points(xyz, torch::full({300, channels}, 0.5f), degree);
+    };
+    Trainer fused(scene.train, field(), 3.0, options);
+    options.sh_update_in_backward = false;
+    Trainer after(scene.train, field(), 3.0, options);
+    int64_t densified = 0;
+    while (!fused.done()) {
+      densified += fused.step().densified;
+      after.step();
+    }
+    EXPECT_GE(densified, 2);
+    ASSERT_EQ(fused.gaussians().size(), after.gaussians().size());
+    EXPECT_NE(fused.gaussians().size(), 300);
+    auto a = fused.gaussians().parameters();
+    auto b = after.gaussians().parameters();
+    for (size_t i = 0; i < a.size(); ++i)
+      EXPECT_TRUE(torch::equal(*a[i], *b[i])) << "C=" << channels << " " << Gaussians::parameter_names()[i];
+    // The SH coefficients moved at every active degree (a sink that dropped rows would leave them).
+    const auto& sh = fused.gaussians().sh;
+    EXPECT_GT((sh.select(1, sh.size(1) - 1)).abs().max().item<float>(), 0.f) << "C=" << channels;
+  }
+}
+
 TEST(Trainer, DivergenceIsReportedWithStepAndLastCheckpointKept) {
   auto scene = make_scene(3, 6, 24, 18);
   auto dir = (fs::temp_directory_path() / "lrf_test_diverge").string();

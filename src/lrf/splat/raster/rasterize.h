@@ -20,6 +20,8 @@
 
 namespace lrf::splat {
 
+struct ShGradientSink;
+
 struct RasterSettings {
   int width = 0, height = 0;             // output resolution (any camera, not only the training one)
   double fx = 0, fy = 0, cx = 0, cy = 0;  // intrinsics at that resolution
@@ -31,6 +33,9 @@ struct RasterSettings {
   double dilation = 0.3;     // the low-pass added to Σ2's diagonal
   bool mip_2d_filter = false;  // Mip-Splatting 2D filter: dilation becomes the filter variance
                                //   (0.1 in Mip-Splatting) and opacity is scaled by sqrt(det Σ2 / det Σ2')
+  // Set by a training step: the backward hands the SH gradient row by row to this sink (sh.h) and returns
+  // no gradient for sh. It must outlive the backward pass.
+  const ShGradientSink* sh_gradient_sink = nullptr;
 };
 
 RasterSettings settings_for(const lrf::Camera& cam, int sh_degree, torch::Tensor background);

@@ -133,6 +133,7 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
     auto& d = ctx->saved_data;
     d["view"] = pack(v);
     d["sh_degree"] = static_cast<int64_t>(s.sh_degree);
+    d["sh_gradient_sink"] = static_cast<int64_t>(reinterpret_cast<intptr_t>(s.sh_gradient_sink));
     d["background"] = background;
     d["depth"] = depth;
     d["conic"] = conic;
@@ -157,6 +158,7 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
     auto& d = ctx->saved_data;
     const Viewpoint v = unpack(d["view"].toTensor());
     const int degree = static_cast<int>(d["sh_degree"].toInt());
+    const auto* sink = reinterpret_cast<const ShGradientSink*>(static_cast<intptr_t>(d["sh_gradient_sink"].toInt()));
     const int64_t n = means.size(0);
     const int k_stored = static_cast<int>(sh.size(1)), C = static_cast<int>(sh.size(2));
     const int64_t H = v.height, W = v.width;
@@ -184,7 +186,8 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
 
     auto d_means = torch::empty({n, 3}, f32), d_log_scales = torch::empty({n, 3}, f32);
     auto d_quats = torch::empty({n, 4}, f32), d_logits = torch::empty({n, 1}, f32);
-    auto d_sh = torch::empty({n, k_stored, C}, f32);
+    torch::Tensor d_sh;  // stays undefined when a sink takes the rows
+    if (!sink) d_sh = torch::empty({n, k_stored, C}, f32);
     project_backward(n, means.data_ptr<float>(), log_scales.data_ptr<float>(), quats.data_ptr<float>(),
                      opacity_logits.data_ptr<float>(), radii.data_ptr<int32_t>(), v,
                      {d_xy.data_ptr<float>(), d_conic.data_ptr<float>(), d_opacity.data_ptr<float>(),
@@ -193,7 +196,8 @@ class RenderFunction : public torch::autograd::Function<RenderFunction> {
                      d_logits.data_ptr<float>());
     sh_backward(n, k_stored, C, degree, sh.data_ptr<float>(), means.data_ptr<float>(), v.campos,
                 radii.data_ptr<int32_t>(), colors.data_ptr<float>(), d_colors.data_ptr<float>(),
-                d_sh.data_ptr<float>(), d_means.data_ptr<float>(), d["color_state"].toTensor().data_ptr<uint8_t>());
+                sink ? nullptr : d_sh.data_ptr<float>(), d_means.data_ptr<float>(),
+                d["color_state"].toTensor().data_ptr<uint8_t>(), sink);
     // Inria's densification statistic is d loss / d NDC: NDC spans 2 units over W (H) pixels.
     auto d_means2d = d_xy * torch::tensor({0.5f * W, 0.5f * H}, f32);
     return {d_means, d_log_scales, d_quats, d_logits, d_sh, d_means2d, {}, {}, {}};

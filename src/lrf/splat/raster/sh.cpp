@@ -81,54 +81,66 @@ void forward_impl(int64_t n, int k_stored, int channels, int degree, const float
   }
 }
 
+// One Gaussian's SH gradient into dsh (zeroed by the caller; left zero when no colour gradient reaches it)
+// and its view-direction term into d_means.
+template <int kC>
+inline void row_gradient(int64_t i, int channels, int K, int degree, const float* coeffs, const float* means,
+                         const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
+                         const uint8_t* evaluated, float* gc, float* dsh, float* d_means) {
+  const int C = kC > 0 ? kC : channels;
+  if (radii[i] == 0 || (evaluated && evaluated[i] != 2)) return;
+  // Colours clamped at 0 pass no gradient (3DGS); a stored colour > 0 means the clamp was inactive.
+  const float* col = colors + i * C;
+  const float* dcol = d_colors + i * C;
+  bool any = false;
+  for (int c = 0; c < C; ++c) {
+    gc[c] = col[c] > 0 ? dcol[c] : 0.f;
+    any |= gc[c] != 0;
+  }
+  if (!any) return;
+  float d[3], b[kMaxCoeffs], grad[kMaxCoeffs][3];
+  const float len = view_direction(means + 3 * i, campos, d);
+  sh_basis(degree, d, b);
+  float dd[3] = {0, 0, 0};
+  if (degree > 0) sh_basis_grad(degree, d, grad);
+  for (int k = 0; k < K; ++k) {
+    const float* row = coeffs + k * C;
+    float* drow = dsh + k * C;
+    float w = 0;
+    for (int c = 0; c < C; ++c) {
+      drow[c] = b[k] * gc[c];
+      w += row[c] * gc[c];
+    }
+    if (k > 0)
+      for (int j = 0; j < 3; ++j) dd[j] += w * grad[k][j];
+  }
+  if (degree > 0 && len > 0) {
+    // d = v/|v|: dL/dv = (dL/dd − d·(d·dL/dd)) / |v|.
+    const float dot = d[0] * dd[0] + d[1] * dd[1] + d[2] * dd[2];
+    for (int j = 0; j < 3; ++j) d_means[3 * i + j] += (dd[j] - d[j] * dot) / len;
+  }
+}
+
 template <int kC>
 void backward_impl(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                    const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
-                   float* d_sh, float* d_means, const uint8_t* evaluated) {
+                   float* d_sh, float* d_means, const uint8_t* evaluated, const ShGradientSink* sink) {
   const int C = kC > 0 ? kC : channels;
   const int K = (degree + 1) * (degree + 1);
+  const int64_t row_size = static_cast<int64_t>(k_stored) * C;
 #pragma omp parallel
   {
-    std::vector<float> gc_buf(C);
+    std::vector<float> gc_buf(C), row_buf(sink ? row_size : 0);
     float* gc = gc_buf.data();
     // Dynamic: only the Gaussians whose colour was used cost anything, and a Z-ordered field keeps them in
     // runs (each row is independent, so the split does not change any result).
 #pragma omp for schedule(dynamic, 512)
     for (int64_t i = 0; i < n; ++i) {
-      float* dsh = d_sh + i * k_stored * C;
-      std::fill(dsh, dsh + k_stored * C, 0.f);
-      if (radii[i] == 0 || (evaluated && evaluated[i] != 2)) continue;
-      // Colours clamped at 0 pass no gradient (3DGS); a stored colour > 0 means the clamp was inactive.
-      const float* col = colors + i * C;
-      const float* dcol = d_colors + i * C;
-      bool any = false;
-      for (int c = 0; c < C; ++c) {
-        gc[c] = col[c] > 0 ? dcol[c] : 0.f;
-        any |= gc[c] != 0;
-      }
-      if (!any) continue;
-      float d[3], b[kMaxCoeffs], grad[kMaxCoeffs][3];
-      const float len = view_direction(means + 3 * i, campos, d);
-      sh_basis(degree, d, b);
-      const float* coeffs = sh + i * k_stored * C;
-      float dd[3] = {0, 0, 0};
-      if (degree > 0) sh_basis_grad(degree, d, grad);
-      for (int k = 0; k < K; ++k) {
-        const float* row = coeffs + k * C;
-        float* drow = dsh + k * C;
-        float w = 0;
-        for (int c = 0; c < C; ++c) {
-          drow[c] = b[k] * gc[c];
-          w += row[c] * gc[c];
-        }
-        if (k > 0)
-          for (int j = 0; j < 3; ++j) dd[j] += w * grad[k][j];
-      }
-      if (degree > 0 && len > 0) {
-        // d = v/|v|: dL/dv = (dL/dd − d·(d·dL/dd)) / |v|.
-        const float dot = d[0] * dd[0] + d[1] * dd[1] + d[2] * dd[2];
-        for (int j = 0; j < 3; ++j) d_means[3 * i + j] += (dd[j] - d[j] * dot) / len;
-      }
+      float* dsh = sink ? row_buf.data() : d_sh + i * row_size;
+      std::fill(dsh, dsh + row_size, 0.f);
+      row_gradient<kC>(i, C, K, degree, sh + i * row_size, means, campos, radii, colors, d_colors, evaluated, gc,
+                       dsh, d_means);
+      if (sink) sink->consume(sink->context, i, dsh);
     }
   }
 }
@@ -182,9 +194,9 @@ void sh_forward_one(int64_t i, int k_stored, int channels, int degree, const flo
 
 void sh_backward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                  const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
-                 float* d_sh, float* d_means, const uint8_t* evaluated) {
+                 float* d_sh, float* d_means, const uint8_t* evaluated, const ShGradientSink* sink) {
   LRF_SH_DISPATCH(backward_impl, n, k_stored, channels, degree, sh, means, campos, radii, colors, d_colors, d_sh,
-                  d_means, evaluated)
+                  d_means, evaluated, sink)
 }
 
 #undef LRF_SH_DISPATCH

@@ -17,11 +17,22 @@ void sh_forward(int64_t n, int k_stored, int channels, int degree, const float* 
 void sh_forward_one(int64_t i, int k_stored, int channels, int degree, const float* sh, const float* means,
                     const double campos[3], float* color);
 
+// Takes each Gaussian's SH gradient row ([k_stored, C] floats) as soon as the backward has it, in place of
+// an [N, k_stored, C] gradient tensor: a training step's optimizer applies it while the row is in cache
+// (GaussianAdam::sh_row_update). consume is called once for every row in [0, N), zero rows included, from
+// the backward's threads; the row of `sh` it is given may be changed by it (the backward has read it).
+struct ShGradientSink {
+  void (*consume)(void* context, int64_t row, const float* d_row) = nullptr;
+  void* context = nullptr;
+};
+
 // d_sh (overwritten, [N, k_stored, C]; zeros for inactive degrees and culled Gaussians) and d_means
 // (accumulated into: the projection writes its part first). The clamp at 0 passes no gradient. When
 // `evaluated` is given, only Gaussians with evaluated[i] == 2 have a colour (the others get zeros).
+// With a sink, d_sh is not written (it may be null) and each row goes to the sink instead.
 void sh_backward(int64_t n, int k_stored, int channels, int degree, const float* sh, const float* means,
                  const double campos[3], const int32_t* radii, const float* colors, const float* d_colors,
-                 float* d_sh, float* d_means, const uint8_t* evaluated = nullptr);
+                 float* d_sh, float* d_means, const uint8_t* evaluated = nullptr,
+                 const ShGradientSink* sink = nullptr);
 
 }  // namespace lrf::splat

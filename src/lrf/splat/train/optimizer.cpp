@@ -80,6 +80,45 @@ double GaussianAdam::others_factor(int64_t step) const {
   return std::exp(std::log(lr_.others_final_factor) * t);
 }
 
+GaussianAdam::ShRows GaussianAdam::group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const {
+  const double f = others_factor(t - 1);
+  const double group_lr[kGroups] = {position_lr(t - 1), f * lr_.scales, f * lr_.rotations, f * lr_.opacity,
+                                    f * lr_.sh_dc};
+  const torch::Tensor& p = *g.parameters()[k];
+  ShRows r;
+  const int64_t n = p.size(0);
+  r.row = n ? p.numel() / n : 0;
+  // For SH: band 0 (C values) at the DC rate, then the active higher bands at the rest rate.
+  r.seg0 = r.row;
+  r.s0 = r.s1 = adam_scalars(group_lr[k], beta1, beta2, eps, t);
+  if (k == 4) {
+    const int64_t c = p.size(2);
+    r.seg0 = c;
+    r.seg1 = (sh_coefficients(active_sh_degree) - 1) * c;
+    r.s1 = adam_scalars(f * lr_.sh_rest, beta1, beta2, eps, t);
+  }
+  return r;
+}
+
+const ShGradientSink& GaussianAdam::sh_row_update(Gaussians& g, int active_sh_degree) {
+  if (sparse) fail("GaussianAdam: the row-by-row SH update does not skip rows (sparse Adam)");
+  torch::Tensor& p = *g.parameters()[4];
+  TORCH_CHECK(p.is_contiguous() && m_[4].sizes() == p.sizes(), "optimizer state out of step with parameters");
+  sh_rows_ = group_rows(g, 4, steps_ + 1, active_sh_degree);
+  sh_rows_.p = p.data_ptr<float>();
+  sh_rows_.m = m_[4].data_ptr<float>();
+  sh_rows_.v = v_[4].data_ptr<float>();
+  sh_sink_.context = &sh_rows_;
+  sh_sink_.consume = [](void* context, int64_t index, const float* grad_row) {
+    const auto& r = *static_cast<const ShRows*>(context);
+    const int64_t o = index * r.row;
+    adam_update(r.p + o, grad_row, r.m + o, r.v + o, r.seg0, r.s0);
+    if (r.seg1) adam_update(r.p + o + r.seg0, grad_row + r.seg0, r.m + o + r.seg0, r.v + o + r.seg0, r.seg1, r.s1);
+  };
+  sh_rows_pending_ = true;
+  return sh_sink_;
+}
+
 void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor& visible) {
   ++steps_;
   auto params = g.parameters();
@@ -87,27 +126,23 @@ void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor&
   torch::Tensor mask_u8;
   if (use_mask) mask_u8 = visible.to(torch::kUInt8).contiguous();
   const uint8_t* mask = use_mask ? mask_u8.data_ptr<uint8_t>() : nullptr;
-  const double f = others_factor(steps_ - 1);
-  const double group_lr[kGroups] = {position_lr(steps_ - 1), f * lr_.scales, f * lr_.rotations, f * lr_.opacity,
-                                    f * lr_.sh_dc};
+  const bool sh_done = sh_rows_pending_;
+  sh_rows_pending_ = false;
 
   for (int k = 0; k < kGroups; ++k) {
     torch::Tensor& p = *params[k];
     torch::Tensor grad = p.grad();
+    if (k == 4 && sh_done) {
+      if (grad.defined()) fail("GaussianAdam: an SH gradient arrived beside the row-by-row update; it would be lost");
+      continue;
+    }
     if (!grad.defined()) continue;
     if (!grad.is_contiguous()) grad = grad.contiguous();
     TORCH_CHECK(p.is_contiguous() && m_[k].sizes() == p.sizes(), "optimizer state out of step with parameters");
     const int64_t n = p.size(0);
-    const int64_t row = n ? p.numel() / n : 0;
-    // For SH: band 0 (C values) at the DC rate, then the active higher bands at the rest rate.
-    int64_t seg0 = row, seg1 = 0;
-    AdamScalars s0 = adam_scalars(group_lr[k], beta1, beta2, eps, steps_), s1 = s0;
-    if (k == 4) {
-      const int64_t c = p.size(2);
-      seg0 = c;
-      seg1 = (sh_coefficients(active_sh_degree) - 1) * c;
-      s1 = adam_scalars(f * lr_.sh_rest, beta1, beta2, eps, steps_);
-    }
+    const ShRows spans = group_rows(g, k, steps_, active_sh_degree);
+    const int64_t row = spans.row, seg0 = spans.seg0, seg1 = spans.seg1;
+    const AdamScalars s0 = spans.s0, s1 = spans.s1;
     float* pp = p.data_ptr<float>();
     const float* gp = grad.data_ptr<float>();
     float* mp = m_[k].data_ptr<float>();

@@ -16,6 +16,7 @@
 #include <torch/types.h>
 
 #include "lrf/splat/gaussians.h"
+#include "lrf/splat/raster/sh.h"
 
 namespace lrf::splat {
 
@@ -61,6 +62,12 @@ class GaussianAdam {
   void step(Gaussians& g, int active_sh_degree, const torch::Tensor& rows = {});
   int64_t steps_taken() const { return steps_; }
 
+  // The SH group's part of the coming step(), for the render backward to apply row by row while each
+  // gradient row is in cache (RasterSettings::sh_gradient_sink), instead of step() reading back an
+  // [N, K, C] gradient tensor: the same arithmetic, bit for bit. Valid until that step(), which then skips
+  // the SH group and fails if an SH gradient reached the tensor by another path. Not with `sparse`.
+  const ShGradientSink& sh_row_update(Gaussians& g, int active_sh_degree);
+
   // Row edits mirroring densification: row i of the new state is row source[i] of the old one; rows
   // from first_new on (clones, split children) start at zero.
   void gather_rows(const torch::Tensor& source, int64_t first_new);
@@ -75,11 +82,23 @@ class GaussianAdam {
   void set_state(const std::vector<torch::Tensor>& tensors, int64_t steps);
 
  private:
+  // Where an SH row's update goes and with which scalars (see sh_row_update).
+  struct ShRows {
+    float *p = nullptr, *m = nullptr, *v = nullptr;
+    int64_t row = 0, seg0 = 0, seg1 = 0;
+    AdamScalars s0{}, s1{};
+  };
+  // The spans of a row updated at each rate and their scalars, for group k at step t (1-based).
+  ShRows group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const;
+
   LearningRates lr_;
   double extent_ = 1;
   int64_t total_ = 1;
   int64_t steps_ = 0;
   std::array<torch::Tensor, kGroups> m_, v_;
+  ShRows sh_rows_;
+  ShGradientSink sh_sink_;
+  bool sh_rows_pending_ = false;
 };
 
 }  // namespace lrf::splat

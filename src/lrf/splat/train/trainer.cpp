@@ -88,9 +88,12 @@ void Trainer::update_filter() {
   filter_ = compute_3d_filter(g_.means, cams);
 }
 
-RenderOutput Trainer::render(const Camera& camera, bool grad) {
+RenderOutput Trainer::render(const Camera& camera, bool grad) { return render_with(camera, grad, nullptr); }
+
+RenderOutput Trainer::render_with(const Camera& camera, bool grad, const ShGradientSink* sink) {
   torch::AutoGradMode mode(grad);
   auto s = settings(camera);
+  s.sh_gradient_sink = sink;
   if (options_.mip) {
     auto f = apply_3d_filter(g_.log_scales, g_.opacity_logits, filter_);
     return splat::render(g_.means, f.log_scales, g_.quats, f.opacity_logits, g_.sh, s);
@@ -106,7 +109,9 @@ StepResult Trainer::step() {
 
   auto t0 = Clock::now();
   const Camera camera = options_.camera_of_step ? options_.camera_of_step(view.camera, view_index, step) : view.camera;
-  RenderOutput out = render(camera, /*grad=*/true);
+  const ShGradientSink* sink = nullptr;
+  if (options_.sh_update_in_backward && !options_.sparse_adam) sink = &adam_.sh_row_update(g_, active_sh_degree());
+  RenderOutput out = render_with(camera, /*grad=*/true, sink);
   r.timings.render = ms_since(t0);
 
   t0 = Clock::now();

@@ -50,6 +50,9 @@ struct TrainerOptions {
   DensifyOptions densify;
   DensifySchedule schedule;  // see DensifySchedule::for_iterations
   bool sparse_adam = false;  // skip Adam on rows without gradient (see GaussianAdam::sparse)
+  // Adam updates each SH row as the render backward produces its gradient (GaussianAdam::sh_row_update),
+  // without an [N, K, C] gradient tensor; the same result bit for bit. Off with sparse_adam.
+  bool sh_update_in_backward = true;
   int psnr_every = 10;  // StepResult::psnr on the training view every this many steps (0 = never)
   Objective objective;  // empty: photometric_loss(render, view.target, lambda_ssim)
   // Called with the 1-based step right after the backward pass, before the Gaussians' Adam step: an
@@ -112,6 +115,8 @@ class Trainer {
  private:
   int view_for_step(int64_t step) const;
   RasterSettings settings(const Camera& camera) const;
+  // render(); a step's render also hands its SH gradient rows to the optimizer through `sink`.
+  RenderOutput render_with(const Camera& camera, bool grad, const ShGradientSink* sink);
   void update_filter();
 
   std::vector<TrainView> views_;
