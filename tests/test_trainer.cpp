@@ -77,6 +77,24 @@ Gaussians start_field(int channels) {
   return gaussians_from_points(xyz, torch::full({400, channels}, 0.5f), 0);
 }
 
+// A schedule that densifies every 20 steps from step 10, resets opacities at 50 and raises the SH degree
+// every sh_every steps: every kind of row edit within a hundred steps.
+TrainerOptions busy_options(int64_t iters, int64_t until, int64_t sh_every, int sh_degree) {
+  auto o = short_options(iters);
+  o.schedule.from = 10;
+  o.schedule.interval = 20;
+  o.schedule.until = until;
+  o.schedule.opacity_reset_every = 50;
+  o.schedule.sh_degree_every = sh_every;
+  o.sh_degree = sh_degree;
+  return o;
+}
+
+Gaussians field_of_300(int channels, int degree) {
+  auto xyz = random_points(300, Eigen::Vector3d::Zero(), 1.0, 5);
+  return gaussians_from_points(xyz, torch::full({300, channels}, 0.5f), degree);
+}
+
 double test_psnr(Trainer& t, const SynthScene& s) {
   double sum = 0;
   for (const auto& v : s.test) sum += psnr(t.render(v.camera).image, v.target);
@@ -102,17 +120,8 @@ TEST(Trainer, ShortFitReachesPsnrBoundOnHeldOutViews) {
 
 TEST(Trainer, ResumedRunEqualsUninterruptedRun) {
   auto scene = make_scene(3, 8, 32, 24);
-  auto options = short_options(120);
-  options.schedule.from = 10;
-  options.schedule.interval = 20;
-  options.schedule.until = 100;
-  options.schedule.opacity_reset_every = 50;
-  options.schedule.sh_degree_every = 40;
-  options.sh_degree = 1;
-  auto field = [] {
-    auto xyz = random_points(300, Eigen::Vector3d::Zero(), 1.0, 5);
-    return gaussians_from_points(xyz, torch::full({300, 3}, 0.5f), 1);
-  };
+  auto options = busy_options(120, 100, 40, 1);
+  auto field = [] { return field_of_300(3, 1); };
   options.mip = true;
   Trainer straight(scene.train, field(), 3.0, options);
   while (!straight.done()) straight.step();
@@ -144,20 +153,10 @@ TEST(Trainer, ResumedRunEqualsUninterruptedRun) {
 TEST(Trainer, ShUpdateInTheBackwardEqualsAdamAfterIt) {
   for (const auto& [channels, degree] : std::vector<std::pair<int, int>>{{3, 3}, {32, 1}}) {
     auto scene = make_scene(channels, 8, 32, 24);
-    auto options = short_options(90);
-    options.schedule.from = 10;
-    options.schedule.interval = 20;
-    options.schedule.until = 70;
-    options.schedule.opacity_reset_every = 50;
-    options.schedule.sh_degree_every = 20;
-    options.sh_degree = degree;
-    auto field = [channels = channels, degree = degree] {
-      auto xyz = random_points(300, Eigen::Vector3d::Zero(), 1.0, 5);
-      return gaussians_from_points(xyz, torch::full({300, channels}, 0.5f), degree);
-    };
-    Trainer fused(scene.train, field(), 3.0, options);
+    auto options = busy_options(90, 70, 20, degree);
+    Trainer fused(scene.train, field_of_300(channels, degree), 3.0, options);
     options.sh_update_in_backward = false;
-    Trainer after(scene.train, field(), 3.0, options);
+    Trainer after(scene.train, field_of_300(channels, degree), 3.0, options);
     int64_t densified = 0;
     while (!fused.done()) {
       densified += fused.step().densified;
