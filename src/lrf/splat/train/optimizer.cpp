@@ -80,12 +80,12 @@ double GaussianAdam::others_factor(int64_t step) const {
   return std::exp(std::log(lr_.others_final_factor) * t);
 }
 
-GaussianAdam::ShRows GaussianAdam::group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const {
+GaussianAdam::GroupRows GaussianAdam::group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const {
   const double f = others_factor(t - 1);
   const double group_lr[kGroups] = {position_lr(t - 1), f * lr_.scales, f * lr_.rotations, f * lr_.opacity,
                                     f * lr_.sh_dc};
   const torch::Tensor& p = *g.parameters()[k];
-  ShRows r;
+  GroupRows r;
   const int64_t n = p.size(0);
   r.row = n ? p.numel() / n : 0;
   // For SH: band 0 (C values) at the DC rate, then the active higher bands at the rest rate.
@@ -110,7 +110,7 @@ const ShGradientSink& GaussianAdam::sh_row_update(Gaussians& g, int active_sh_de
   sh_rows_.v = v_[4].data_ptr<float>();
   sh_sink_.context = &sh_rows_;
   sh_sink_.consume = [](void* context, int64_t index, const float* grad_row) {
-    const auto& r = *static_cast<const ShRows*>(context);
+    const auto& r = *static_cast<const GroupRows*>(context);
     const int64_t o = index * r.row;
     adam_update(r.p + o, grad_row, r.m + o, r.v + o, r.seg0, r.s0);
     if (r.seg1) adam_update(r.p + o + r.seg0, grad_row + r.seg0, r.m + o + r.seg0, r.v + o + r.seg0, r.seg1, r.s1);
@@ -140,7 +140,7 @@ void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor&
     if (!grad.is_contiguous()) grad = grad.contiguous();
     TORCH_CHECK(p.is_contiguous() && m_[k].sizes() == p.sizes(), "optimizer state out of step with parameters");
     const int64_t n = p.size(0);
-    const ShRows spans = group_rows(g, k, steps_, active_sh_degree);
+    const GroupRows spans = group_rows(g, k, steps_, active_sh_degree);
     const int64_t row = spans.row, seg0 = spans.seg0, seg1 = spans.seg1;
     const AdamScalars s0 = spans.s0, s1 = spans.s1;
     float* pp = p.data_ptr<float>();

@@ -82,21 +82,22 @@ class GaussianAdam {
   void set_state(const std::vector<torch::Tensor>& tensors, int64_t steps);
 
  private:
-  // Where an SH row's update goes and with which scalars (see sh_row_update).
-  struct ShRows {
+  // A group's rows: their length, the spans updated at the first and second rate and those rates' scalars;
+  // for the SH group of a row-by-row update also where the rows live (see sh_row_update).
+  struct GroupRows {
     float *p = nullptr, *m = nullptr, *v = nullptr;
     int64_t row = 0, seg0 = 0, seg1 = 0;
     AdamScalars s0{}, s1{};
   };
   // The spans of a row updated at each rate and their scalars, for group k at step t (1-based).
-  ShRows group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const;
+  GroupRows group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const;
 
   LearningRates lr_;
   double extent_ = 1;
   int64_t total_ = 1;
   int64_t steps_ = 0;
   std::array<torch::Tensor, kGroups> m_, v_;
-  ShRows sh_rows_;
+  GroupRows sh_rows_;
   ShGradientSink sh_sink_;
   bool sh_rows_pending_ = false;
 };
