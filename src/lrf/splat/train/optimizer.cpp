@@ -100,6 +100,11 @@ GaussianAdam::GroupRows GaussianAdam::group_rows(const Gaussians& g, int k, int6
   return r;
 }
 
+void GaussianAdam::update_row(const GroupRows& r, float* p, const float* g, float* m, float* v) {
+  adam_update(p, g, m, v, r.seg0, r.s0);
+  if (r.seg1) adam_update(p + r.seg0, g + r.seg0, m + r.seg0, v + r.seg0, r.seg1, r.s1);
+}
+
 const ShGradientSink& GaussianAdam::sh_row_update(Gaussians& g, int active_sh_degree) {
   if (sparse) fail("GaussianAdam: the row-by-row SH update does not skip rows (sparse Adam)");
   torch::Tensor& p = *g.parameters()[4];
@@ -112,8 +117,7 @@ const ShGradientSink& GaussianAdam::sh_row_update(Gaussians& g, int active_sh_de
   sh_sink_.consume = [](void* context, int64_t index, const float* grad_row) {
     const auto& r = *static_cast<const GroupRows*>(context);
     const int64_t o = index * r.row;
-    adam_update(r.p + o, grad_row, r.m + o, r.v + o, r.seg0, r.s0);
-    if (r.seg1) adam_update(r.p + o + r.seg0, grad_row + r.seg0, r.m + o + r.seg0, r.v + o + r.seg0, r.seg1, r.s1);
+    update_row(r, r.p + o, grad_row, r.m + o, r.v + o);
   };
   sh_rows_pending_ = true;
   return sh_sink_;
@@ -141,24 +145,22 @@ void GaussianAdam::step(Gaussians& g, int active_sh_degree, const torch::Tensor&
     TORCH_CHECK(p.is_contiguous() && m_[k].sizes() == p.sizes(), "optimizer state out of step with parameters");
     const int64_t n = p.size(0);
     const GroupRows spans = group_rows(g, k, steps_, active_sh_degree);
-    const int64_t row = spans.row, seg0 = spans.seg0, seg1 = spans.seg1;
-    const AdamScalars s0 = spans.s0, s1 = spans.s1;
+    const int64_t row = spans.row;
     float* pp = p.data_ptr<float>();
     const float* gp = grad.data_ptr<float>();
     float* mp = m_[k].data_ptr<float>();
     float* vp = v_[k].data_ptr<float>();
     const int64_t grain = std::max<int64_t>(1, 32768 / std::max<int64_t>(row, 1));
     at::parallel_for(0, n, grain, [&](int64_t begin, int64_t end) {
-      if (!mask && seg0 == row) {  // whole rows, one segment: one long span
+      if (!mask && spans.seg0 == row) {  // whole rows, one segment: one long span
         const int64_t o = begin * row;
-        adam_update(pp + o, gp + o, mp + o, vp + o, (end - begin) * row, s0);
+        adam_update(pp + o, gp + o, mp + o, vp + o, (end - begin) * row, spans.s0);
         return;
       }
       for (int64_t r = begin; r < end; ++r) {
         if (mask && !mask[r]) continue;
         const int64_t o = r * row;
-        adam_update(pp + o, gp + o, mp + o, vp + o, seg0, s0);
-        if (seg1) adam_update(pp + o + seg0, gp + o + seg0, mp + o + seg0, vp + o + seg0, seg1, s1);
+        update_row(spans, pp + o, gp + o, mp + o, vp + o);
       }
     });
   }

@@ -91,6 +91,9 @@ class GaussianAdam {
   };
   // The spans of a row updated at each rate and their scalars, for group k at step t (1-based).
   GroupRows group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const;
+  // One row's update (parameters p, gradient g, moments m and v at the row's start), shared by step() and
+  // the row-by-row SH update so that the two stay the same arithmetic.
+  static void update_row(const GroupRows& r, float* p, const float* g, float* m, float* v);
 
   LearningRates lr_;
   double extent_ = 1;
