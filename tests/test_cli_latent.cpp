@@ -24,6 +24,11 @@ TEST(CliLatent, TrainRenderEval) {
   EXPECT_EQ(config["latent_channels"], 32);
   EXPECT_EQ(config["sh_degree"], 1);  // the latent default
   EXPECT_EQ(config["latent_range"]["min"].size(), 32u);
+  // 60 steps: the short-run rates, at their largest factor, on the means and SH only.
+  EXPECT_EQ(config["options"]["short_run_rates"], true);
+  EXPECT_DOUBLE_EQ(config["learning_rates"]["sh_dc"].get<double>(), 4 * 2.5e-3);
+  EXPECT_DOUBLE_EQ(config["learning_rates"]["position_init"].get<double>(), 4 * 1.6e-4);
+  EXPECT_DOUBLE_EQ(config["learning_rates"]["opacity"].get<double>(), 5e-2);
 
   // A second run into the same folder is refused without --force or --resume.
   auto again = lrf::test::run_lrf("train '" + scene + "' --space latent --iters 10 -o '" + out + "'");
@@ -63,6 +68,30 @@ TEST(CliLatent, TrainRenderEval) {
   EXPECT_EQ(config["space"], "latent");
   EXPECT_EQ(config["sh_degree"], 1);  // the latent default
   EXPECT_EQ(config["result"]["steps"], 80);
+}
+
+// --inria-rates keeps Inria's rates in a short run, is recorded, kept by --resume, and refused for RGB.
+TEST(CliLatent, InriaRatesKeepsTheRatesOfAShortRun) {
+  lrf::test::TempDir tmp("cli_latent_rates");
+  const std::string scene = lrf::test::synthetic_scene({8, "64x48", 3, 800});
+  const std::string out = tmp / "f", cache = " --cache-dir '" + tmp.str() + "/cache'";
+  auto train = lrf::test::run_lrf("--threads 2 -q train '" + scene + "' --space latent --iters 20 --inria-rates" +
+                                  cache + " -o '" + out + "'");
+  ASSERT_EQ(train.exit_code, 0) << train.output;
+  auto config = lrf::read_json_file(out + "/config.json");
+  EXPECT_EQ(config["options"]["short_run_rates"], false);
+  EXPECT_DOUBLE_EQ(config["learning_rates"]["sh_dc"].get<double>(), 2.5e-3);
+  EXPECT_DOUBLE_EQ(config["learning_rates"]["position_init"].get<double>(), 1.6e-4);
+
+  auto resumed = lrf::test::run_lrf("--threads 2 -q train '" + scene + "' --resume --iters 30" + cache + " -o '" + out + "'");
+  ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+  config = lrf::read_json_file(out + "/config.json");
+  EXPECT_EQ(config["result"]["steps"], 30);
+  EXPECT_DOUBLE_EQ(config["learning_rates"]["sh_dc"].get<double>(), 2.5e-3);
+
+  auto rgb = lrf::test::run_lrf("train '" + scene + "' --inria-rates --iters 10 -o '" + tmp.str() + "/rgb'");
+  EXPECT_EQ(rgb.exit_code, 1);
+  EXPECT_NE(rgb.output.find("--inria-rates"), std::string::npos) << rgb.output;
 }
 
 }  // namespace

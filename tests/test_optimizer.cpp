@@ -131,3 +131,30 @@ TEST(GaussianAdam, ShRowUpdateEqualsTheTensorUpdateAndRefusesAStrayGradient) {
   adam_b.sparse = true;
   EXPECT_THROW(adam_b.sh_row_update(b, 1), lrf::Error);
 }
+
+// A run shorter than 7000 steps scales the means' and SH rates by 7000 / steps, at most 4x; the rest keep
+// Inria's values, and 7000 steps or more change nothing.
+TEST(LearningRates, ShortRunsMoveMeansAndShFaster) {
+  using lrf::splat::LearningRates;
+  const LearningRates inria;
+  EXPECT_EQ(LearningRates::short_run_factor(30000), 1.0);
+  EXPECT_EQ(LearningRates::short_run_factor(7000), 1.0);
+  EXPECT_DOUBLE_EQ(LearningRates::short_run_factor(3500), 2.0);
+  EXPECT_DOUBLE_EQ(LearningRates::short_run_factor(2500), 2.8);
+  EXPECT_EQ(LearningRates::short_run_factor(1000), LearningRates::kMaxShortRunFactor);
+  EXPECT_EQ(LearningRates::short_run_factor(0), LearningRates::kMaxShortRunFactor);
+
+  const LearningRates r = inria.for_short_run(3500);
+  EXPECT_DOUBLE_EQ(r.position_init, 2 * inria.position_init);
+  EXPECT_DOUBLE_EQ(r.position_final, 2 * inria.position_final);
+  EXPECT_DOUBLE_EQ(r.sh_dc, 2 * inria.sh_dc);
+  EXPECT_DOUBLE_EQ(r.sh_rest, 2 * inria.sh_rest);
+  EXPECT_EQ(r.scales, inria.scales);
+  EXPECT_EQ(r.rotations, inria.rotations);
+  EXPECT_EQ(r.opacity, inria.opacity);
+  EXPECT_EQ(r.others_final_factor, inria.others_final_factor);
+
+  const LearningRates same = inria.for_short_run(7000);
+  EXPECT_EQ(same.position_init, inria.position_init);
+  EXPECT_EQ(same.sh_dc, inria.sh_dc);
+}

@@ -186,6 +186,10 @@ class RefineRun : public ::testing::Test {
     o.out = *dir_ / "field";
     o.autoencoder = taef2();
     o.iters = 300;
+    // Inria's rates: the refinement bounds below were measured on this field. With the short-run rates the
+    // field starts nearer the held-out views (mean L1 0.1008 against 0.1098) and refining ends lower (0.0959
+    // against 0.0966), a relative gain below the 8% the bounds ask.
+    o.short_run_rates = false;
     o.cache_dir = *dir_ / "cache";
     lrf::train_latent_field(o);
   }

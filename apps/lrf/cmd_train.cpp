@@ -32,6 +32,7 @@ struct TrainOptions {
   uint64_t seed = 0;
   int64_t max_gaussians = 0;
   double densify_grad = lrf::splat::DensifyOptions{}.grad_threshold;
+  bool inria_rates = false;  // latent: no faster means and SH in runs under 7000 steps
   bool resume = false;
   bool force = false;
   int64_t checkpoint_every = 1000;
@@ -73,6 +74,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.iters = o.iters;
   l.max_gaussians = o.max_gaussians;
   l.densify_grad = o.densify_grad;
+  l.short_run_rates = !o.inria_rates;
   l.checkpoint_every = o.checkpoint_every;
   l.seed = o.seed;
   l.resume = o.resume;
@@ -172,6 +174,7 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
       o.init = j.at("init").get<std::string>();
       o.rgb_guide = j.value("rgb_guide", 0.0);
       o.feature_dim = j.value("feature_dim", 0);
+      o.inria_rates = !j.value("short_run_rates", false);  // runs from before the short-run rates kept Inria's
     } else {
       o.scene_options.test_list = j.at("test_list").get<std::string>();
       o.scene_options.format = j.at("format").get<std::string>();
@@ -203,6 +206,7 @@ int run_train(const TrainOptions& o) {
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
   check_init_points_mode(points.mode);
   if (o.rgb_guide != 0 && o.space != "latent") fail("--rgb-guide applies to --space latent");
+  if (o.inria_rates && o.space != "latent") fail("--inria-rates applies to --space latent");
   if (o.space == "latent-nerf") return run_train_nerf(o, points);
   if (o.nerf_option_set) fail("--rays, --samples and --hash-log2 apply to --space latent-nerf");
   if (o.space == "latent") return run_train_latent(o, points);
@@ -333,6 +337,10 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                   "Mean screen-space gradient (NDC units) above which a Gaussian is cloned or split; higher grows "
                   "a smaller field (Inria's 2e-4)")
       ->capture_default_str();
+  cmd->add_flag("--inria-rates", o->inria_rates,
+                "latent: keep Inria's learning rates in a run shorter than 7000 steps. By default such a run, whose "
+                "densification schedule is compressed by iters/7000, moves the means and SH coefficients "
+                "min(7000/iters, 4) times faster");
   cmd->add_flag("--resume", o->resume,
                 "Continue the run in the output folder from its last checkpoint, with its recorded settings "
                 "(--iters and --checkpoint-every may change)");

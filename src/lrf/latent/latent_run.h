@@ -44,6 +44,9 @@ struct LatentTrainOptions {
   int feature_dim = 0;
   int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
   double densify_grad = splat::DensifyOptions{}.grad_threshold;
+  // A run shorter than 7000 steps moves its means and SH faster (splat::LearningRates::for_short_run);
+  // false keeps Inria's rates.
+  bool short_run_rates = true;
   uint64_t seed = 0;
   bool resume = false, force = false, sparse_adam = false;
   InitPointsOptions init_points;  // where the initial Gaussians come from (SfM, triangulated, random, a file)

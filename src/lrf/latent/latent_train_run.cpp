@@ -25,7 +25,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
           {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
           {"downscale", o.downscale}, {"test_every", o.test_every}, {"train_views", o.train_views},
           {"feature_dim", o.feature_dim}, {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
-          {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"seed", o.seed},
+          {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"short_run_rates", o.short_run_rates}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
           {"checkpoint_every", o.checkpoint_every}};
 }
@@ -76,6 +76,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   to.schedule = DensifySchedule::for_iterations(o.iters);
   to.densify.max_gaussians = o.max_gaussians;
   to.densify.grad_threshold = o.densify_grad;
+  to.lr = o.short_run_rates ? LearningRates{}.for_short_run(o.iters) : LearningRates{};
   to.background = torch::zeros({feature_dim > 0 ? feature_dim : data.init.channels()});
   const double extent = scene.camera_extent();
   if (lift) {
@@ -99,6 +100,9 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   config["init"] = o.init;
   config["rgb_guide"] = o.rgb_guide;
   config["init_points"] = data.init_points;
+  config["learning_rates"] = {{"position_init", to.lr.position_init}, {"position_final", to.lr.position_final},
+                              {"sh_dc", to.lr.sh_dc}, {"sh_rest", to.lr.sh_rest}, {"scales", to.lr.scales},
+                              {"rotations", to.lr.rotations}, {"opacity", to.lr.opacity}};
   if (feature_dim > 0) {
     config["feature_dim"] = feature_dim;
     config["feature_field"] = {{"lift", "lift.safetensors"},

@@ -59,6 +59,21 @@ void adam_update(float* p, const float* g, float* m, float* v, int64_t n, const 
   for (int64_t i = 0; i < n; ++i) adam_element(p, g, m, v, i, s);
 }
 
+double LearningRates::short_run_factor(int64_t iterations) {
+  if (iterations >= 7000) return 1.0;
+  return std::min(kMaxShortRunFactor, 7000.0 / double(std::max<int64_t>(iterations, 1)));
+}
+
+LearningRates LearningRates::for_short_run(int64_t iterations) const {
+  const double k = short_run_factor(iterations);
+  LearningRates r = *this;
+  r.position_init *= k;
+  r.position_final *= k;
+  r.sh_dc *= k;
+  r.sh_rest *= k;
+  return r;
+}
+
 GaussianAdam::GaussianAdam(const Gaussians& g, const LearningRates& lr, double extent, int64_t total_steps)
     : lr_(lr), extent_(extent), total_(std::max<int64_t>(total_steps, 1)) {
   auto params = g.parameters();

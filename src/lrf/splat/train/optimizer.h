@@ -31,6 +31,14 @@ struct LearningRates {
   // The rates of scales, rotations, opacity and SH are multiplied by a factor going log-linearly from 1 at
   // the first step to this at the last (1: constant, as in Inria's 3DGS; refinement decays them).
   double others_final_factor = 1.0;
+
+  // These rates with the means' and the SH coefficients' scaled by short_run_factor(iterations): a run
+  // shorter than Inria's short run compresses its schedule by iterations / 7000
+  // (DensifySchedule::for_iterations), and moves its Gaussians' means and features as much in fewer steps.
+  LearningRates for_short_run(int64_t iterations) const;
+  // 7000 / iterations, from 1 (7000 steps or more) up to kMaxShortRunFactor.
+  static double short_run_factor(int64_t iterations);
+  static constexpr double kMaxShortRunFactor = 4.0;
 };
 
 // The scalars of one Adam update at step t (bias corrections folded in), in float as the update runs.
