@@ -15,8 +15,8 @@ DensifySchedule DensifySchedule::for_iterations(int64_t iterations) {
   DensifySchedule s;
   iterations = std::max<int64_t>(iterations, 1);
   s.until = std::min<int64_t>(15000, iterations / 2);
-  if (iterations >= 7000) return s;
-  const double k = double(iterations) / 7000.0;
+  if (iterations >= kInriaShortRunSteps) return s;
+  const double k = double(iterations) / double(kInriaShortRunSteps);
   auto scaled = [k](double v, int64_t floor) { return std::max<int64_t>(floor, std::llround(v * k)); };
   s.from = scaled(500, 0);
   // Statistics need a few views per densification: never densify more often than every 10 steps.

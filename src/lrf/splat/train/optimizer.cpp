@@ -60,8 +60,8 @@ void adam_update(float* p, const float* g, float* m, float* v, int64_t n, const 
 }
 
 double LearningRates::short_run_factor(int64_t iterations) {
-  if (iterations >= 7000) return 1.0;
-  return std::min(kMaxShortRunFactor, 7000.0 / double(std::max<int64_t>(iterations, 1)));
+  if (iterations >= kInriaShortRunSteps) return 1.0;
+  return std::min(kMaxShortRunFactor, double(kInriaShortRunSteps) / double(std::max<int64_t>(iterations, 1)));
 }
 
 LearningRates LearningRates::for_short_run(int64_t iterations) const {

@@ -20,6 +20,10 @@
 
 namespace lrf::splat {
 
+// Inria's short run (its 7k-step checkpoint): runs shorter than this compress their densification schedule
+// (DensifySchedule::for_iterations) and, for latent fields, speed up their rates (for_short_run) by the same ratio.
+constexpr int64_t kInriaShortRunSteps = 7000;
+
 struct LearningRates {
   double position_init = 1.6e-4;  // times the scene extent
   double position_final = 1.6e-6;
