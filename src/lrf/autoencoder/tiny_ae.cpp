@@ -7,44 +7,13 @@
 
 #include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/autoencoder/strict_load.h"
+#include "lrf/autoencoder/tiny_block.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
 namespace {
 
 namespace nn = torch::nn;
-
-MixedConv2d conv3(int in, int out, int stride = 1, bool bias = true) {
-  return MixedConv2d(nn::Conv2dOptions(in, out, 3).stride(stride).padding(1).bias(bias));
-}
-MixedConv2d conv1(int in, int out) { return MixedConv2d(nn::Conv2dOptions(in, out, 1).bias(false)); }
-nn::ReLU relu_inplace() { return nn::ReLU(nn::ReLUOptions().inplace(true)); }
-
-// Residual block: relu(conv(x) + x), three 3x3 convs with ReLUs between them; optionally preceded by
-// TAEF2's global-statistics branch x += pool(x).
-struct TinyBlockImpl : nn::Module {
-  TinyBlockImpl(int channels, bool with_pool) {
-    // In-place ReLUs: the convolutions' backward does not need their outputs, so this is autograd-safe
-    // and saves an allocation + pass over memory per activation.
-    conv = register_module("conv", nn::Sequential(conv3(channels, channels), relu_inplace(), conv3(channels, channels),
-                                                  relu_inplace(), conv3(channels, channels)));
-    if (with_pool) {
-      // Widening x4 is in TAEF2's weight shapes (256 = 4 x 64). The group count is not: 4 groups is the
-      // public taesd.py FLUX.2 variant's choice, and the round-trip PSNR on fern confirms it (other
-      // counts reconstruct measurably worse; see the issue note).
-      const int wide = channels * 4;
-      pool = register_module("pool", nn::Sequential(conv1(channels, wide), MixedGroupNorm(nn::GroupNormOptions(4, wide)),
-                                                    nn::ReLU(), conv1(wide, channels)));
-    }
-  }
-  at::Tensor forward(at::Tensor x) {
-    if (pool) x = x + pool->forward(x);
-    return (conv->forward(x) + x).relu_();
-  }
-  nn::Sequential conv{nullptr};
-  nn::Sequential pool{nullptr};
-};
-TORCH_MODULE(TinyBlock);
 
 nn::Upsample upsample2() {
   return nn::Upsample(nn::UpsampleOptions().scale_factor(std::vector<double>{2.0, 2.0}).mode(torch::kNearest));
@@ -121,25 +90,25 @@ void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>&
   latent_channels_ = c;
   auto block = [](const std::set<int>& pools, int index) { return TinyBlock(64, pools.count(index) > 0); };
   encoder_ = nn::Sequential();
-  encoder_->push_back(conv3(3, 64));                                         // 0
-  encoder_->push_back(block(ep, 1));                                         // 1
-  for (int level = 0; level < 3; ++level) {                                  // 2..13
-    encoder_->push_back(conv3(64, 64, 2, false));
+  encoder_->push_back(tiny_conv3x3(3, 64));                                   // 0
+  encoder_->push_back(block(ep, 1));                                          // 1
+  for (int level = 0; level < 3; ++level) {                                   // 2..13
+    encoder_->push_back(tiny_conv3x3(64, 64, 2, false));
     for (int i = 0; i < 3; ++i) encoder_->push_back(block(ep, 3 + 4 * level + i));
   }
-  encoder_->push_back(conv3(64, c));                                         // 14
+  encoder_->push_back(tiny_conv3x3(64, c));                                   // 14
 
   decoder_ = nn::Sequential();
-  decoder_->push_back(nn::Functional([](const at::Tensor& x) { return torch::tanh(x / 3) * 3; }));  // 0
-  decoder_->push_back(conv3(c, 64));                                        // 1
-  decoder_->push_back(relu_inplace());                                      // 2
-  for (int level = 0; level < 3; ++level) {                                 // 3..17
+  decoder_->push_back(nn::Functional([](const at::Tensor& x) { return torch::tanh(x / 3) * 3; })); // 0
+  decoder_->push_back(tiny_conv3x3(c, 64));                                   // 1
+  decoder_->push_back(nn::ReLU(nn::ReLUOptions().inplace(true)));             // 2
+  for (int level = 0; level < 3; ++level) {                                   // 3..17
     for (int i = 0; i < 3; ++i) decoder_->push_back(block(dp, 3 + 5 * level + i));
     decoder_->push_back(upsample2());
-    decoder_->push_back(conv3(64, 64, 1, false));
+    decoder_->push_back(tiny_conv3x3(64, 64, 1, false));
   }
-  decoder_->push_back(block(dp, 18));                                       // 18
-  decoder_->push_back(conv3(64, 3));                                        // 19
+  decoder_->push_back(block(dp, 18));                                         // 18
+  decoder_->push_back(tiny_conv3x3(64, 3));                                   // 19
 
   // The local part starts after the last block with a pool branch; its reach in latent cells is the sum,
   // over its 3x3 convolutions, of one pixel at that convolution's resolution (1/2, 1/4 or 1/8 of a cell
