@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libtorch-dev libgloo-dev libopenblas0-openmp libopenblas-dev
+  libtorch-dev libdnnl-dev libgloo-dev libopenblas0-openmp libopenblas-dev
   libopencv-dev libeigen3-dev nlohmann-json3-dev libcli11-dev libspdlog-dev libfmt-dev
   libsqlite3-dev libgtest-dev libgmock-dev libbenchmark-dev
   python3-numpy python3-torch

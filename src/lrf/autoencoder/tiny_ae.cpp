@@ -7,7 +7,9 @@
 
 #include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/autoencoder/strict_load.h"
+#include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_block.h"
+#include "lrf/autoencoder/tiny_fused.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -86,8 +88,12 @@ TinyAutoencoder::TinyAutoencoder(const StateDict& encoder, const std::string& en
   load_strict(*decoder_, dec, decoder_name + " (tiny decoder)");
 }
 
+TinyAutoencoder::~TinyAutoencoder() = default;
+
 void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>& dp) {
   latent_channels_ = c;
+  fused_ = std::make_unique<TinyFusedLayers>();
+  fused_on_ = fused_conv_enabled();
   auto block = [](const std::set<int>& pools, int index) { return TinyBlock(64, pools.count(index) > 0); };
   encoder_ = nn::Sequential();
   encoder_->push_back(tiny_conv3x3(3, 64));                                   // 0
@@ -129,26 +135,35 @@ void TinyAutoencoder::build(int c, const std::set<int>& ep, const std::set<int>&
 
 at::Tensor TinyAutoencoder::encode(const at::Tensor& images) {
   check_images(images);
-  return from_network(encoder_->forward(to_network(images)));
+  return from_network(run(*encoder_, 0, encoder_->size(), to_network(images)));
 }
 
 at::Tensor TinyAutoencoder::decode_unclamped(const at::Tensor& latents) {
   check_latents(latents);
-  return from_network(decoder_->forward(to_network(latents)));
+  return from_network(run(*decoder_, 0, decoder_->size(), to_network(latents)));
 }
 
 at::Tensor TinyAutoencoder::decode_global(const at::Tensor& latents) {
   check_latents(latents);
   // Handed back in float32 like every output; decode_local's cast back to bf16 is exact, so the split
   // still decodes exactly as decode_unclamped does.
-  return from_network(run_layers(*decoder_, 0, decoder_split_, to_network(latents)));
+  return from_network(run(*decoder_, 0, decoder_split_, to_network(latents)));
 }
 
 at::Tensor TinyAutoencoder::decode_local(const at::Tensor& features) {
   if (features.dim() != 4 || features.size(1) != (decoder_split_ == 0 ? latent_channels_ : 64)) {
     fail("tiny autoencoder: decode_local takes decode_global's features, got " + std::string(c10::str(features.sizes())));
   }
-  return from_network(run_layers(*decoder_, decoder_split_, decoder_->size(), to_network(features)));
+  return from_network(run(*decoder_, decoder_split_, decoder_->size(), to_network(features)));
+}
+
+bool TinyAutoencoder::uses_fused_layers() const {
+  return fused_on_ && channels_last() && !at::GradMode::is_enabled();
+}
+
+at::Tensor TinyAutoencoder::run(nn::SequentialImpl& half, size_t from, size_t to, const at::Tensor& x) {
+  if (uses_fused_layers()) return fused_->run(half, from, to, x);
+  return run_layers(half, from, to, x);
 }
 
 StateDict TinyAutoencoder::encoder_keys(const StateDict& file) const {

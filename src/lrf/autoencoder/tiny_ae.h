@@ -7,6 +7,7 @@
 // weights. Native key names are those of the reference nn.Sequential: "0.weight", "1.conv.0.weight",
 // "11.pool.1.weight", ...; the diffusers single-file layout ("encoder.layers.N", "decoder.layers.N") is
 // also understood.
+#include <memory>
 #include <set>
 
 #include <torch/nn/modules/container/sequential.h>
@@ -14,6 +15,8 @@
 #include "lrf/autoencoder/autoencoder.h"
 
 namespace lrf {
+
+class TinyFusedLayers;
 
 class TinyAutoencoder : public Autoencoder {
  public:
@@ -23,6 +26,7 @@ class TinyAutoencoder : public Autoencoder {
                   const std::string& decoder_name);
   // Randomly initialised network with the given latent channels; `pool` adds TAEF2's branch.
   TinyAutoencoder(int latent_channels, bool pool);
+  ~TinyAutoencoder() override;
 
   std::string kind() const override { return "tiny"; }
   int latent_channels() const override { return latent_channels_; }
@@ -33,6 +37,9 @@ class TinyAutoencoder : public Autoencoder {
   at::Tensor decode_global(const at::Tensor& latents) override;
   at::Tensor decode_local(const at::Tensor& features) override;
   int decode_local_reach() const override { return local_reach_; }
+  // Whether inference may run the fused layers of tiny_fused.h (default: fused_conv_enabled()); off, it
+  // runs the torch modules. For comparing the two.
+  void set_fused_layers(bool on) { fused_on_ = on; }
 
  protected:
   torch::nn::Module& encoder_module() override { return *encoder_; }
@@ -41,12 +48,18 @@ class TinyAutoencoder : public Autoencoder {
   StateDict decoder_keys(const StateDict& file) const override;
 
  private:
+  // Inference (no gradient recorded) in channels-last layout runs the fused layers of tiny_fused.h.
+  bool uses_fused_layers() const;
+  // Layers [from, to) of a half, fused when uses_fused_layers(), else the modules.
+  at::Tensor run(torch::nn::SequentialImpl& half, size_t from, size_t to, const at::Tensor& x);
   void build(int latent_channels, const std::set<int>& encoder_pool, const std::set<int>& decoder_pool);
   int latent_channels_ = 4;
   size_t decoder_split_ = 0;  // decoder layers [0, split) are global, [split, end) local
   int local_reach_ = 0;
   torch::nn::Sequential encoder_{nullptr};
   torch::nn::Sequential decoder_{nullptr};
+  std::unique_ptr<TinyFusedLayers> fused_;
+  bool fused_on_ = true;
 };
 
 }  // namespace lrf

@@ -1,0 +1,161 @@
+#include "lrf/autoencoder/onednn_conv.h"
+
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <string>
+#include <tuple>
+#include <unordered_map>
+#include <vector>
+
+#include <ATen/ATen.h>
+#include <oneapi/dnnl/dnnl.hpp>
+
+#include "lrf/core/error.h"
+
+namespace lrf {
+namespace {
+
+using dt = dnnl::memory::data_type;
+using tag = dnnl::memory::format_tag;
+
+dnnl::engine& cpu_engine() {
+  static dnnl::engine engine(dnnl::engine::kind::cpu, 0);
+  return engine;
+}
+
+std::string shape_of(const at::Tensor& t) { return c10::str(t.sizes()); }
+
+}  // namespace
+
+struct FusedConv2d::Impl {
+  // One primitive per input shape, dtype and epilogue, with the weights in the layout it chose.
+  struct Prepared {
+    dnnl::convolution_forward conv;
+    dnnl::memory::desc src, dst, scratch;
+    dnnl::memory weights, bias;
+    int64_t out_h = 0, out_w = 0;
+  };
+  using Key = std::tuple<int, int64_t, int64_t, int64_t, bool, bool>;
+
+  std::vector<float> weight;  // [O, I, kh, kw]
+  std::vector<float> bias;    // [O]; empty for a layer without bias
+  int64_t outputs = 0, inputs = 0, kh = 0, kw = 0;
+  int stride = 1, padding = 0;
+  std::mutex mutex;
+  std::map<Key, std::shared_ptr<const Prepared>> cache;
+
+  std::shared_ptr<const Prepared> prepared(bool bf16, int64_t n, int64_t h, int64_t w, bool relu, bool sum) {
+    const Key key{bf16, n, h, w, relu, sum};
+    std::lock_guard<std::mutex> lock(mutex);
+    if (auto it = cache.find(key); it != cache.end()) return it->second;
+    auto p = std::make_shared<Prepared>();
+    const dt type = bf16 ? dt::bf16 : dt::f32;
+    p->out_h = (h + 2 * padding - kh) / stride + 1;
+    p->out_w = (w + 2 * padding - kw) / stride + 1;
+    p->src = dnnl::memory::desc({n, inputs, h, w}, type, tag::nhwc);
+    p->dst = dnnl::memory::desc({n, outputs, p->out_h, p->out_w}, type, tag::nhwc);
+    const dnnl::memory::desc weights_any({outputs, inputs, kh, kw}, type, tag::any);
+    const dnnl::memory::desc bias_md({outputs}, dt::f32, tag::a);
+    const dnnl::memory::dims strides{stride, stride}, pad{padding, padding};
+    using conv = dnnl::convolution_forward;
+    const auto kind = dnnl::prop_kind::forward_inference;
+    const auto algo = dnnl::algorithm::convolution_direct;
+    const conv::desc desc = bias.empty() ? conv::desc(kind, algo, p->src, weights_any, p->dst, strides, pad, pad)
+                                         : conv::desc(kind, algo, p->src, weights_any, bias_md, p->dst, strides, pad, pad);
+    dnnl::post_ops ops;
+    if (sum) ops.append_sum(1.f);  // dst = conv + bias + dst
+    if (relu) ops.append_eltwise(1.f, dnnl::algorithm::eltwise_relu, 0.f, 0.f);
+    dnnl::primitive_attr attr;
+    attr.set_post_ops(ops);
+    // Scratch memory handed in per call, so that two threads may run one primitive at once.
+    attr.set_scratchpad_mode(dnnl::scratchpad_mode::user);
+    const conv::primitive_desc pd(desc, attr, cpu_engine());
+    p->conv = conv(pd);
+    p->scratch = pd.scratchpad_desc();
+    dnnl::memory plain({{outputs, inputs, kh, kw}, dt::f32, tag::oihw}, cpu_engine(), weight.data());
+    p->weights = dnnl::memory(pd.weights_desc(), cpu_engine());
+    dnnl::stream stream(cpu_engine());
+    dnnl::reorder(plain, p->weights).execute(stream, plain, p->weights);
+    stream.wait();
+    if (!bias.empty()) p->bias = dnnl::memory(bias_md, cpu_engine(), bias.data());
+    cache.emplace(key, p);
+    return p;
+  }
+};
+
+FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int stride, int padding)
+    : impl_(std::make_unique<Impl>()) {
+  if (weight.dim() != 4) fail("FusedConv2d: weight must be [O, I, kh, kw], got " + shape_of(weight));
+  const at::Tensor w = weight.detach().to(at::kFloat).contiguous();
+  impl_->outputs = w.size(0), impl_->inputs = w.size(1), impl_->kh = w.size(2), impl_->kw = w.size(3);
+  impl_->weight.assign(w.data_ptr<float>(), w.data_ptr<float>() + w.numel());
+  if (bias.defined()) {
+    if (bias.dim() != 1 || bias.size(0) != impl_->outputs) fail("FusedConv2d: bias must be [O], got " + shape_of(bias));
+    const at::Tensor b = bias.detach().to(at::kFloat).contiguous();
+    impl_->bias.assign(b.data_ptr<float>(), b.data_ptr<float>() + b.numel());
+  }
+  if (stride < 1 || padding < 0) fail("FusedConv2d: stride must be positive and padding non-negative");
+  impl_->stride = stride;
+  impl_->padding = padding;
+}
+
+FusedConv2d::~FusedConv2d() = default;
+
+at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Tensor& residual) const {
+  Impl& m = *impl_;
+  if (input.dim() != 4 || input.size(1) != m.inputs) {
+    fail("FusedConv2d: input must be [N, " + std::to_string(m.inputs) + ", H, W], got " + shape_of(input));
+  }
+  const auto dtype = input.scalar_type();
+  if (dtype != at::kBFloat16 && dtype != at::kFloat) fail("FusedConv2d: input must be bf16 or float32");
+  if (input.size(2) + 2 * m.padding < m.kh || input.size(3) + 2 * m.padding < m.kw) {
+    fail("FusedConv2d: input " + shape_of(input) + " is smaller than the kernel");
+  }
+  const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
+  const bool sum = residual.defined();
+  std::shared_ptr<const Impl::Prepared> p;
+  try {
+    p = m.prepared(dtype == at::kBFloat16, x.size(0), x.size(2), x.size(3), relu, sum);
+  } catch (const dnnl::error& e) {
+    fail(std::string("FusedConv2d: oneDNN has no convolution for ") + shape_of(x) + ": " + e.what());
+  }
+  at::Tensor out;
+  if (sum) {
+    const std::vector<int64_t> want{x.size(0), m.outputs, p->out_h, p->out_w};
+    if (residual.sizes() != at::IntArrayRef(want) || residual.scalar_type() != dtype ||
+        !residual.is_contiguous(at::MemoryFormat::ChannelsLast)) {
+      fail("FusedConv2d: the residual must be a channels-last " + std::string(c10::toString(dtype)) + " tensor of " +
+           c10::str(at::IntArrayRef(want)) + ", got " + shape_of(residual));
+    }
+    out = residual;
+  } else {
+    out = at::empty({x.size(0), m.outputs, p->out_h, p->out_w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));
+  }
+  const int64_t scratch_bytes = static_cast<int64_t>(p->scratch.get_size());
+  at::Tensor scratch = at::empty({std::max<int64_t>(scratch_bytes, 1)}, x.options().dtype(at::kByte));
+  dnnl::memory src(p->src, cpu_engine(), x.data_ptr()), dst(p->dst, cpu_engine(), out.data_ptr());
+  dnnl::memory scratchpad(p->scratch, cpu_engine(), scratch.data_ptr());
+  std::unordered_map<int, dnnl::memory> args{
+      {DNNL_ARG_SRC, src}, {DNNL_ARG_WEIGHTS, p->weights}, {DNNL_ARG_DST, dst}, {DNNL_ARG_SCRATCHPAD, scratchpad}};
+  if (!m.bias.empty()) args.emplace(DNNL_ARG_BIAS, p->bias);
+  thread_local dnnl::stream stream(cpu_engine());
+  try {
+    p->conv.execute(stream, args);
+    stream.wait();
+  } catch (const dnnl::error& e) {
+    fail(std::string("FusedConv2d: oneDNN failed: ") + e.what());
+  }
+  return out;
+}
+
+bool fused_conv_enabled() {
+  static const bool enabled = [] {
+    const char* v = std::getenv("LRF_FUSED_CONV");
+    return !(v && std::strcmp(v, "0") == 0);
+  }();
+  return enabled;
+}
+
+}  // namespace lrf

@@ -1,0 +1,208 @@
+// The autoencoders' fused inference (onednn_conv.h, tiny_fused.h): one convolution with its residual add
+// and ReLU against a float64 loop, and the tiny autoencoder's encode / decode / split decode against its
+// torch modules, in fp32 and bf16, including weights that change after the first call.
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <torch/torch.h>
+
+#include "lrf/autoencoder/onednn_conv.h"
+#include "lrf/autoencoder/tiny_ae.h"
+#include "lrf/autoencoder/tiny_block.h"
+#include "lrf/autoencoder/tiny_fused.h"
+#include "lrf/core/cpu_features.h"
+#include "test_helpers.h"
+
+namespace {
+
+// relu?(conv(x) + bias + residual) in float64 plain loops; x [N, I, H, W], w [O, I, k, k].
+at::Tensor reference_conv(const at::Tensor& x, const at::Tensor& w, const at::Tensor& b, int stride, int pad,
+                          const at::Tensor& residual, bool relu) {
+  const at::Tensor xd = x.to(at::kDouble).contiguous(), wd = w.to(at::kDouble).contiguous();
+  const int64_t n = x.size(0), ci = x.size(1), h = x.size(2), wi = x.size(3);
+  const int64_t co = w.size(0), k = w.size(2);
+  const int64_t oh = (h + 2 * pad - k) / stride + 1, ow = (wi + 2 * pad - k) / stride + 1;
+  at::Tensor out = torch::zeros({n, co, oh, ow}, at::kDouble);
+  auto X = xd.accessor<double, 4>();
+  auto W = wd.accessor<double, 4>();
+  auto O = out.accessor<double, 4>();
+  const at::Tensor rd = residual.defined() ? residual.to(at::kDouble).contiguous() : at::Tensor();
+  const at::Tensor bd = b.defined() ? b.to(at::kDouble).contiguous() : at::Tensor();
+  for (int64_t s = 0; s < n; ++s)
+    for (int64_t o = 0; o < co; ++o)
+      for (int64_t y = 0; y < oh; ++y)
+        for (int64_t xx = 0; xx < ow; ++xx) {
+          double acc = bd.defined() ? bd[o].item<double>() : 0.0;
+          for (int64_t c = 0; c < ci; ++c)
+            for (int64_t dy = 0; dy < k; ++dy)
+              for (int64_t dx = 0; dx < k; ++dx) {
+                const int64_t iy = y * stride - pad + dy, ix = xx * stride - pad + dx;
+                if (iy < 0 || iy >= h || ix < 0 || ix >= wi) continue;
+                acc += X[s][c][iy][ix] * W[o][c][dy][dx];
+              }
+          if (rd.defined()) acc += rd[s][o][y][xx].item<double>();
+          O[s][o][y][xx] = relu ? std::max(acc, 0.0) : acc;
+        }
+  return out;
+}
+
+double max_abs(const at::Tensor& a, const at::Tensor& b) {
+  return (a.to(at::kDouble) - b.to(at::kDouble)).abs().max().item<double>();
+}
+
+at::Tensor channels_last(const at::Tensor& t) { return t.contiguous(at::MemoryFormat::ChannelsLast); }
+
+TEST(FusedConv2d, MatchesAFloat64LoopWithBiasResidualAndRelu) {
+  torch::manual_seed(3);
+  const at::Tensor x = torch::randn({2, 8, 11, 13});
+  const at::Tensor w = torch::randn({6, 8, 3, 3}) * 0.3;
+  const at::Tensor b = torch::randn({6});
+  lrf::FusedConv2d conv(w, b, 1, 1);
+  // float32: the sums of 72 products of O(1) terms, rounded in float32 in some order: 1e-4 is ~100 ulps
+  // of the largest partial sums (~10).
+  const at::Tensor plain = conv.forward(channels_last(x), false);
+  EXPECT_TRUE(plain.is_contiguous(at::MemoryFormat::ChannelsLast));
+  EXPECT_LT(max_abs(plain, reference_conv(x, w, b, 1, 1, {}, false)), 1e-4);
+  EXPECT_LT(max_abs(conv.forward(channels_last(x), true), reference_conv(x, w, b, 1, 1, {}, true)), 1e-4);
+  // The residual is added before the ReLU, into the tensor handed in, which is returned.
+  const at::Tensor r = torch::randn({2, 6, 11, 13});
+  at::Tensor into = channels_last(r.clone());
+  const at::Tensor fused = conv.forward(channels_last(x), true, into);
+  EXPECT_TRUE(fused.is_same(into));
+  const at::Tensor want = reference_conv(x, w, b, 1, 1, r, true);
+  EXPECT_LT(max_abs(fused, want), 1e-4);
+  EXPECT_GT(want.eq(0).sum().item<int64_t>(), 0);  // the ReLU clipped something
+  EXPECT_GT(max_abs(want, reference_conv(x, w, b, 1, 1, {}, true)), 0.5);  // and the residual mattered
+}
+
+TEST(FusedConv2d, StridedWithoutBiasAndInBf16) {
+  torch::manual_seed(4);
+  const at::Tensor x = torch::randn({1, 16, 17, 10});
+  const at::Tensor w = torch::randn({16, 16, 3, 3}) * 0.2;
+  lrf::FusedConv2d strided(w, {}, 2, 1);
+  const at::Tensor y = strided.forward(channels_last(x), false);
+  ASSERT_EQ(y.sizes(), (std::vector<int64_t>{1, 16, 9, 5}));
+  EXPECT_LT(max_abs(y, reference_conv(x, w, {}, 2, 1, {}, false)), 1e-4);
+  // bf16: inputs and weights rounded to 8 significant bits (relative 2^-9 each), float32 sums, the
+  // output rounded once more. The reference takes the rounded inputs, so what is left is the output's
+  // rounding (2^-9 of values up to ~6) plus the weights' (sums of 144 terms of ~0.2 with independent
+  // errors of 2^-9 relative: ~0.01): 0.05 bounds both with margin, and is far below the values' spread.
+  const at::Tensor x16 = channels_last(x.to(at::kBFloat16));
+  const at::Tensor y16 = strided.forward(x16, false);
+  EXPECT_EQ(y16.scalar_type(), at::kBFloat16);
+  const at::Tensor want = reference_conv(x16.to(at::kFloat), w, {}, 2, 1, {}, false);
+  EXPECT_LT(max_abs(y16, want), 0.05);
+  EXPECT_GT(want.abs().max().item<double>(), 2.0);
+}
+
+TEST(FusedConv2d, RefusesBadShapes) {
+  lrf::FusedConv2d conv(torch::randn({4, 3, 3, 3}), torch::randn({4}), 1, 1);
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 5, 8, 8}), false); }).find("[N, 3, H, W]"),
+            std::string::npos);
+  const at::Tensor wrong = channels_last(torch::zeros({1, 4, 7, 8}));
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 3, 8, 8}), false, wrong); }).find("residual"),
+            std::string::npos);
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 3, 8, 8}).to(at::kDouble), false); }).find("bf16"),
+            std::string::npos);
+}
+
+// A TAEF2-shaped network (32 latent channels, group-norm branches) with random weights, channels-last
+// as load_autoencoder runs it.
+std::unique_ptr<lrf::TinyAutoencoder> small_taef2() {
+  torch::manual_seed(5);
+  auto ae = std::make_unique<lrf::TinyAutoencoder>(32, true);
+  ae->set_channels_last(true);
+  return ae;
+}
+
+// The modules' result and the fused layers' result of `f`, computed with no gradient.
+template <class F>
+std::pair<at::Tensor, at::Tensor> both_ways(lrf::TinyAutoencoder& ae, F f) {
+  torch::NoGradGuard no_grad;
+  ae.set_fused_layers(false);
+  at::Tensor modules = f();
+  ae.set_fused_layers(true);
+  at::Tensor fused = f();
+  return {modules, fused};
+}
+
+double relative(const at::Tensor& a, const at::Tensor& b) {
+  return max_abs(a, b) / std::max(1e-12, b.abs().max().item<double>());
+}
+
+TEST(TinyFusedLayers, Fp32AgreesWithTheModules) {
+  auto ae = small_taef2();
+  const at::Tensor x = torch::rand({1, 3, 64, 48});
+  auto [z_modules, z_fused] = both_ways(*ae, [&] { return ae->encode(x); });
+  ASSERT_EQ(z_fused.sizes(), z_modules.sizes());
+  // Float32 throughout; only the order of the convolutions' sums differs (and one rounding per residual
+  // add): 1e-4 of the output's range is ~800 ulps, against ~15 convolutions of 576 terms.
+  EXPECT_LT(relative(z_fused, z_modules), 1e-4);
+  auto [y_modules, y_fused] = both_ways(*ae, [&] { return ae->decode(z_modules); });
+  EXPECT_LT(relative(y_fused, y_modules), 1e-4);
+  // The split decode gives the whole decode's result, and leaves its input as it was.
+  auto [unused, y_split] = both_ways(*ae, [&] {
+    at::Tensor features = ae->decode_global(z_modules);
+    const at::Tensor copy = features.clone();
+    at::Tensor out = ae->decode_local(features);
+    EXPECT_TRUE(features.equal(copy));
+    return out;
+  });
+  (void)unused;
+  EXPECT_LT(relative(ae->decode_unclamped(z_modules).detach(), y_split), 1e-4);
+}
+
+TEST(TinyFusedLayers, LeavesTheCallersTensorAlone) {
+  // A block met first sees the caller's tensor (float32 channels-last needs no conversion): its residual
+  // add must not write into it. (In the autoencoders every half starts with another layer; this is
+  // run's own contract.)
+  torch::manual_seed(6);
+  torch::nn::Sequential layers(lrf::TinyBlock(16, false), lrf::TinyBlock(16, false));
+  lrf::TinyFusedLayers fused;
+  torch::NoGradGuard no_grad;
+  const at::Tensor x = channels_last(torch::randn({1, 16, 12, 10}));
+  const at::Tensor copy = x.clone();
+  const at::Tensor y = fused.run(*layers, 0, layers->size(), x);
+  EXPECT_TRUE(x.equal(copy));
+  EXPECT_LT(relative(y, layers->forward(copy)), 1e-4);
+}
+
+TEST(TinyFusedLayers, FollowsWeightsThatChange) {
+  auto ae = small_taef2();
+  const at::Tensor z = torch::randn({1, 32, 6, 5});
+  torch::NoGradGuard no_grad;
+  const at::Tensor before = ae->decode_unclamped(z);
+  // An optimiser step changes parameters in place: the fused layers must read them again.
+  for (auto& p : ae->decoder_parameters()) p.mul_(1.05).add_(0.01);
+  auto [modules, fused] = both_ways(*ae, [&] { return ae->decode_unclamped(z); });
+  EXPECT_GT(max_abs(modules, before), 1e-3);
+  EXPECT_LT(relative(fused, modules), 1e-4);
+}
+
+TEST(TinyFusedLayers, Bf16AgreesWithTheModules) {
+  if (!lrf::cpu_has_bf16()) GTEST_SKIP() << "no native bf16 on this CPU";
+  auto ae = small_taef2();
+  ae->set_precision(lrf::Precision::bf16);
+  const at::Tensor x = torch::rand({1, 3, 64, 48});
+  auto [z_modules, z_fused] = both_ways(*ae, [&] { return ae->encode(x); });
+  // Both round every activation to bf16 (2^-9 relative); they differ by the order of float32 sums and by
+  // the rounding the fused residual add saves, each a fraction of one bf16 step per layer, compounded
+  // over ~15 layers: a few bf16 steps of the output range, 3 % bounds it.
+  EXPECT_LT(relative(z_fused, z_modules), 0.03);
+  auto [y_modules, y_fused] = both_ways(*ae, [&] { return ae->decode(z_modules); });
+  EXPECT_LT(relative(y_fused, y_modules), 0.03);
+}
+
+TEST(TinyFusedLayers, GradientsStillFlowThroughTheModules) {
+  auto ae = small_taef2();
+  ae->set_fused_layers(true);
+  at::Tensor z = torch::randn({1, 32, 4, 4}, torch::requires_grad());
+  at::Tensor y = ae->decode_unclamped(z);
+  ASSERT_TRUE(y.requires_grad());
+  y.sum().backward();
+  EXPECT_GT(z.grad().abs().sum().item<double>(), 0);
+}
+
+}  // namespace
