@@ -8,6 +8,8 @@
 //             (the ceiling for the networks, which are almost only such convolutions)
 //   encode    image -> latent, no gradient
 //   decode    latent -> image, no gradient
+//   fused     encode and decode, bf16 then fp32: the torch modules against the fused layers
+//             (tiny_fused.h: residual adds and ReLUs done by the convolutions' stores), alternated
 //   backward  decode_unclamped + backward to the latent (the decoder frozen): a refinement step's share
 //   stage1    one Stage I step: 2 pairs of 192x192 crops of llff-fern, L_VAE + L_corres + L_reg,
 //             backward into the encoder, Adam on float32 master weights
@@ -34,6 +36,7 @@
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
+#include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/core/allocator.h"
 #include "lrf/core/cpu_features.h"
@@ -94,38 +97,44 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-// Runs `once(precision)` for fp32 and bf16 `reps` times each, alternating which goes first, after one
-// warm-up each (oneDNN builds its kernels on first use). Prints seconds per call, calls per second, the
-// speed-up fp32/bf16 per repetition, and GFLOP/s when `flops` is given.
-void ab(const std::string& name, int reps, double flops, const std::function<void(Precision)>& once) {
-  once(Precision::fp32);
-  once(Precision::bf16);
-  std::vector<double> t32, t16, ratio;
+// Runs `once(false)` (the A case) and `once(true)` (B) `reps` times each, alternating which goes first,
+// after one warm-up each (oneDNN builds its kernels on first use). Prints seconds per call, calls per
+// second, the speed-up of B over A per repetition (A's time / B's), and GFLOP/s when `flops` is given.
+void alternate(const std::string& name, int reps, double flops, const char* a_name, const char* b_name,
+               const std::function<void(bool)>& once) {
+  once(false);
+  once(true);
+  std::vector<double> ta, tb, ratio;
   for (int r = 0; r < reps; ++r) {
     double a = 0, b = 0;
     for (int k = 0; k < 2; ++k) {
-      const bool fp32_now = (k == 0) == (r % 2 == 0);
+      const bool a_now = (k == 0) == (r % 2 == 0);
       const double t0 = now();
-      once(fp32_now ? Precision::fp32 : Precision::bf16);
-      (fp32_now ? a : b) = now() - t0;
+      once(!a_now);
+      (a_now ? a : b) = now() - t0;
     }
-    t32.push_back(a);
-    t16.push_back(b);
+    ta.push_back(a);
+    tb.push_back(b);
     ratio.push_back(a / b);
   }
-  auto row = [&](const char* p, const std::vector<double>& t) {
+  auto row = [&](const char* label, const std::vector<double>& t) {
     const double m = median(t);
-    std::printf("%-10s %-5s %8.1f ms [%7.1f - %7.1f]  %6.2f /s", name.c_str(), p, 1e3 * m,
+    std::printf("%-10s %-7s %8.1f ms [%7.1f - %7.1f]  %6.2f /s", name.c_str(), label, 1e3 * m,
                 1e3 * *std::min_element(t.begin(), t.end()), 1e3 * *std::max_element(t.begin(), t.end()), 1 / m);
     if (flops > 0) std::printf("  %6.0f GFLOP/s", flops / m * 1e-9);
     std::printf("\n");
   };
-  row("fp32", t32);
-  row("bf16", t16);
-  std::printf("%-10s speed-up bf16 over fp32: %.2fx (per repetition %.2f - %.2f, %d repetitions)\n\n", name.c_str(),
-              median(ratio), *std::min_element(ratio.begin(), ratio.end()),
+  row(a_name, ta);
+  row(b_name, tb);
+  std::printf("%-10s speed-up %s over %s: %.2fx (per repetition %.2f - %.2f, %d repetitions)\n\n", name.c_str(), b_name,
+              a_name, median(ratio), *std::min_element(ratio.begin(), ratio.end()),
               *std::max_element(ratio.begin(), ratio.end()), reps);
   std::fflush(stdout);
+}
+
+// fp32 (A) against bf16 (B).
+void ab(const std::string& name, int reps, double flops, const std::function<void(Precision)>& once) {
+  alternate(name, reps, flops, "fp32", "bf16", [&](bool bf16) { once(bf16 ? Precision::bf16 : Precision::fp32); });
 }
 
 at::Tensor fern_image(int index) {
@@ -170,6 +179,23 @@ void bench_taef2(lrf::Autoencoder& ae, const std::set<std::string>& cases, int r
       ae.set_precision(p);
       ae.decode(z);
     });
+  }
+  if (cases.count("fused")) {
+    auto* tiny = dynamic_cast<lrf::TinyAutoencoder*>(&ae);
+    torch::NoGradGuard no_grad;
+    for (Precision p : {Precision::bf16, Precision::fp32}) {
+      ae.set_precision(p);
+      const std::string tag = p == Precision::bf16 ? "-bf16" : "-fp32";
+      alternate("encode" + tag, reps, taef2_encode_flops(kWidth, kHeight), "modules", "fused", [&](bool fused) {
+        tiny->set_fused_layers(fused);
+        ae.encode(x);
+      });
+      alternate("decode" + tag, reps, taef2_decode_flops(kWidth, kHeight), "modules", "fused", [&](bool fused) {
+        tiny->set_fused_layers(fused);
+        ae.decode(z);
+      });
+    }
+    tiny->set_fused_layers(lrf::fused_conv_enabled());
   }
   if (cases.count("backward")) {
     ae.set_decoder_trainable(false);
@@ -314,10 +340,10 @@ int main(int argc, char** argv) {
       cases.insert(argv[i]);
     }
   }
-  const std::set<std::string> known = {"conv", "encode", "decode", "backward", "stage1", "stage3", "quality", "kl"};
+  const std::set<std::string> known = {"conv", "encode", "decode", "fused", "backward", "stage1", "stage3", "quality", "kl"};
   for (const auto& c : cases) {
     if (!known.count(c)) {
-      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv encode decode backward stage1 stage3 quality kl)\n",
+      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv encode decode fused backward stage1 stage3 quality kl)\n",
                    c.c_str());
       return 2;
     }
@@ -329,7 +355,7 @@ int main(int argc, char** argv) {
   std::printf("CPU native bf16 (AVX512_BF16 or AMX-BF16): %s\n\n", lrf::cpu_reports_bf16() ? "yes" : "no");
   try {
     if (cases.count("conv")) bench_conv(reps);
-    if (cases.count("encode") || cases.count("decode") || cases.count("backward") || cases.count("quality")) {
+    if (cases.count("encode") || cases.count("decode") || cases.count("fused") || cases.count("backward") || cases.count("quality")) {
       auto ae = make_taef2();
       bench_taef2(*ae, cases, reps);
       if (cases.count("quality")) bench_quality(*ae);
