@@ -97,6 +97,28 @@ TEST(FusedConv2d, StridedWithoutBiasAndInBf16) {
   EXPECT_GT(want.abs().max().item<double>(), 2.0);
 }
 
+TEST(UpsampledConv2d, EqualsAConvolutionOfTheUpsampledImage) {
+  torch::manual_seed(7);
+  const at::Tensor x = torch::randn({2, 8, 5, 7});
+  const at::Tensor w = torch::randn({6, 8, 3, 3}) * 0.3;
+  const at::Tensor b = torch::randn({6});
+  const at::Tensor up = at::upsample_nearest2d(x, {10, 14});
+  lrf::UpsampledConv2d conv(w, b);
+  const at::Tensor y = conv.forward(channels_last(x), false);
+  ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, 6, 10, 14}));
+  EXPECT_TRUE(y.is_contiguous(at::MemoryFormat::ChannelsLast));
+  // float32 sums of 32 products of summed weights, against float64: as in the plain convolution, 1e-4.
+  EXPECT_LT(max_abs(y, reference_conv(up, w, b, 1, 1, {}, false)), 1e-4);
+  EXPECT_LT(max_abs(conv.forward(channels_last(x), true), reference_conv(up, w, b, 1, 1, {}, true)), 1e-4);
+  // Without bias and in bf16: the inputs exactly as given, the summed weights (up to 4 taps of ~0.3)
+  // rounded to 2^-9 relative and the output rounded once: the 0.05 of the bf16 test above.
+  lrf::UpsampledConv2d plain(w, {});
+  const at::Tensor x16 = channels_last(x.to(at::kBFloat16));
+  const at::Tensor want = reference_conv(at::upsample_nearest2d(x16.to(at::kFloat), {10, 14}), w, {}, 1, 1, {}, false);
+  EXPECT_LT(max_abs(plain.forward(x16, false), want), 0.05);
+  EXPECT_GT(want.abs().max().item<double>(), 2.0);
+}
+
 TEST(FusedConv2d, RefusesBadShapes) {
   lrf::FusedConv2d conv(torch::randn({4, 3, 3, 3}), torch::randn({4}), 1, 1);
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 5, 8, 8}), false); }).find("[N, 3, H, W]"),

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <ATen/ATen.h>
+#include <ATen/Parallel.h>
 #include <oneapi/dnnl/dnnl.hpp>
 
 #include "lrf/core/error.h"
@@ -147,6 +148,64 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
   } catch (const dnnl::error& e) {
     fail(std::string("FusedConv2d: oneDNN failed: ") + e.what());
   }
+  return out;
+}
+
+namespace {
+
+// Rows (or columns) of a 3x3 kernel that land on tap r of the 2x2 kernel of phase `a`: in output row
+// 2i + a of the upsampled image, kernel rows 0, 1, 2 read upsampled rows 2i + a - 1, 2i + a, 2i + a + 1,
+// i.e. input rows i - 1, i, i (a = 0) or i, i, i + 1 (a = 1). The 2x2 convolution with padding 1 puts
+// input rows i - 1 + a + r under output row i + a, tap r.
+constexpr int kFirst[2][2] = {{0, 1}, {0, 2}};  // [a][r]: first kernel row
+constexpr int kLast[2][2] = {{0, 2}, {1, 2}};   // [a][r]: last kernel row (inclusive)
+
+// Phase p = 2a + b's 2x2 kernels as output channels [p·O, (p + 1)·O).
+at::Tensor phase_weights(const at::Tensor& weight) {
+  const at::Tensor w = weight.detach().to(at::kDouble).contiguous();
+  const int64_t o = w.size(0), i = w.size(1);
+  at::Tensor out = at::zeros({4 * o, i, 2, 2}, w.options());
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b)
+      for (int r = 0; r < 2; ++r)
+        for (int c = 0; c < 2; ++c) {
+          const at::Tensor taps = w.slice(2, kFirst[a][r], kLast[a][r] + 1).slice(3, kFirst[b][c], kLast[b][c] + 1);
+          out.slice(0, (2 * a + b) * o, (2 * a + b + 1) * o).select(2, r).select(2, c).copy_(taps.sum({2, 3}));
+        }
+  return out.to(at::kFloat);
+}
+
+}  // namespace
+
+UpsampledConv2d::UpsampledConv2d(const at::Tensor& weight, const at::Tensor& bias) {
+  if (weight.dim() != 4 || weight.size(2) != 3 || weight.size(3) != 3) {
+    fail("UpsampledConv2d: weight must be [O, I, 3, 3], got " + shape_of(weight));
+  }
+  outputs_ = weight.size(0);
+  const at::Tensor b = bias.defined() ? bias.detach().to(at::kFloat).repeat({4}) : at::Tensor();
+  phases_ = std::make_unique<FusedConv2d>(phase_weights(weight), b, 1, 1);
+}
+
+UpsampledConv2d::~UpsampledConv2d() = default;
+
+at::Tensor UpsampledConv2d::forward(const at::Tensor& input, bool relu) const {
+  const at::Tensor g = phases_->forward(input, relu);  // [N, 4·O, H + 1, W + 1]
+  const int64_t n = g.size(0), h = g.size(2) - 1, w = g.size(3) - 1, o = outputs_;
+  at::Tensor out = at::empty({n, o, 2 * h, 2 * w}, g.options().memory_format(at::MemoryFormat::ChannelsLast));
+  const int64_t bytes = o * static_cast<int64_t>(g.element_size());
+  const char* src = static_cast<const char*>(g.data_ptr());
+  char* dst = static_cast<char*>(out.data_ptr());
+  at::parallel_for(0, n * 2 * h, 8, [&](int64_t begin, int64_t end) {
+    for (int64_t row = begin; row < end; ++row) {
+      const int64_t s = row / (2 * h), y = row % (2 * h), a = y & 1, i = y >> 1;
+      const char* grid_row = src + ((s * (h + 1) + i + a) * (w + 1)) * 4 * bytes;
+      char* out_row = dst + row * 2 * w * bytes;
+      for (int64_t x = 0; x < 2 * w; ++x) {
+        const int64_t b = x & 1, j = x >> 1;
+        std::memcpy(out_row + x * bytes, grid_row + ((j + b) * 4 + 2 * a + b) * bytes, static_cast<size_t>(bytes));
+      }
+    }
+  });
   return out;
 }
 

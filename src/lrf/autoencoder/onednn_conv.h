@@ -31,6 +31,30 @@ class FusedConv2d {
   std::unique_ptr<Impl> impl_;
 };
 
+// A 2x nearest-neighbour upsampling followed by a 3x3 convolution (zero padding 1, stride 1), computed
+// without the upsampled image: each output pixel's nine taps fall on only 2x2 distinct input pixels, so
+// the four output phases (row and column parity) are four 2x2 convolutions of the input with weights
+// summed from the 3x3 kernel's rows and columns: 4/9 of the multiply-adds, and no pass writing the
+// upsampled image. They run as one 2x2 convolution with 4·O outputs (padding 1), whose phases are then
+// interleaved into the output. The value is the composition's up to the order of float32 sums (and, in
+// bf16, the rounding of the summed weights instead of each weight).
+class UpsampledConv2d {
+ public:
+  // weight [O, I, 3, 3] (float32, any layout; copied), bias [O] or undefined.
+  UpsampledConv2d(const at::Tensor& weight, const at::Tensor& bias);
+  ~UpsampledConv2d();
+  UpsampledConv2d(const UpsampledConv2d&) = delete;
+  UpsampledConv2d& operator=(const UpsampledConv2d&) = delete;
+
+  // input [N, I, H, W] (bf16 or float32) -> conv(upsample2x(input)) [N, O, 2H, 2W], channels-last,
+  // ReLU'd when `relu`.
+  at::Tensor forward(const at::Tensor& input, bool relu) const;
+
+ private:
+  int64_t outputs_ = 0;
+  std::unique_ptr<FusedConv2d> phases_;  // the 2x2 convolution with 4·O outputs
+};
+
 // Whether the autoencoders' inference may use FusedConv2d: yes unless LRF_FUSED_CONV=0 (kept to compare
 // against libtorch's path, and as a way out should a oneDNN build misbehave).
 bool fused_conv_enabled();
