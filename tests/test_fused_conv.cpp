@@ -128,6 +128,10 @@ TEST(FusedConv2d, RefusesBadShapes) {
             std::string::npos);
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 3, 8, 8}).to(at::kDouble), false); }).find("bf16"),
             std::string::npos);
+  // A residual in the input's memory would be overwritten while it is read.
+  lrf::FusedConv2d square(torch::randn({3, 3, 3, 3}), {}, 1, 1);
+  const at::Tensor x = channels_last(torch::randn({1, 3, 8, 8}));
+  EXPECT_NE(lrf::test::error_of([&] { square.forward(x, false, x); }).find("shares memory"), std::string::npos);
 }
 
 // A TAEF2-shaped network (32 latent channels, group-norm branches) with random weights, channels-last

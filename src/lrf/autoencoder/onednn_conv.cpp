@@ -130,6 +130,12 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
       fail("FusedConv2d: the residual must be a channels-last " + std::string(c10::toString(dtype)) + " tensor of " +
            c10::str(at::IntArrayRef(want)) + ", got " + shape_of(residual));
     }
+    // oneDNN reads the input while it writes the output: they must not share memory.
+    const auto* in_begin = static_cast<const char*>(x.data_ptr());
+    const auto* res_begin = static_cast<const char*>(residual.data_ptr());
+    if (res_begin < in_begin + x.nbytes() && in_begin < res_begin + residual.nbytes()) {
+      fail("FusedConv2d: the residual shares memory with the input");
+    }
     out = residual;
   } else {
     out = at::empty({x.size(0), m.outputs, p->out_h, p->out_w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));

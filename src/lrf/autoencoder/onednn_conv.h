@@ -22,8 +22,8 @@ class FusedConv2d {
   // input [N, I, H, W], bf16 or float32 (bf16: products in bf16, sums in float32, as at::conv2d's bf16
   // path). Returns [N, O, H', W'] channels-last in the input's dtype: conv + bias, then + `residual`
   // when it is defined, then the ReLU when `relu`. A defined `residual` must be channels-last with the
-  // output's shape and dtype; the result is written into it (its values are consumed) and it is
-  // returned. Thread-safe; each new input shape builds (and keeps) its own oneDNN primitive.
+  // output's shape and dtype and must not overlap the input; the result is written into it (its
+  // values are consumed) and it is returned. Thread-safe; each new input shape builds (and keeps) its own oneDNN primitive.
   at::Tensor forward(const at::Tensor& input, bool relu, const at::Tensor& residual = {}) const;
 
  private:
