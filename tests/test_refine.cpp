@@ -278,7 +278,7 @@ TEST_F(RefineRun, ShiftedLatentCameraMovesTheContentByTheShift) {
   const at::Tensor moved = shifted.narrow(1, 2, h - 2).narrow(2, 1, w - 1);
   const at::Tensor source = plain.narrow(1, 0, h - 2).narrow(2, 0, w - 1);
   // The same splats over the same pixels in the same order: equal but for the rounding of the projected
-  // positions (measured: 0).
+  // positions (measured: 3e-7, on fields fitted to either encoder's latents).
   EXPECT_LT((moved - source).abs().max().item<double>(), 1e-5);
   EXPECT_GT((shifted - plain).abs().mean().item<double>(), 1e-2);  // the scene is not flat
 }
