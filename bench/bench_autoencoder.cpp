@@ -6,6 +6,8 @@
 // from ../shared/models when present, else random weights of the same architecture):
 //   conv      one 64->64 3x3 convolution at 504x376, channels-last: what oneDNN reaches per precision
 //             (the ceiling for the networks, which are almost only such convolutions)
+//   bounds    the least time of a decode, an encode, a Stage I and a Stage III step if every convolution
+//             ran at the rate of the fastest bf16 64->64 convolution measured here (FLOPs / that rate)
 //   encode    image -> latent, no gradient
 //   decode    latent -> image, no gradient
 //   fused     encode and decode, bf16 then fp32: the torch modules against the fused layers
@@ -89,6 +91,13 @@ double taef2_decode_flops(int w, int h) {
   return 2 * (latent + middle + full);
 }
 
+// The multiply-adds the fused decode skips: each 2x upsampling's 3x3 convolution runs as 2x2 phases
+// (UpsampledConv2d), 4/9 of its products, at 1/4, 1/2 and full resolution.
+double taef2_upsampling_saving_flops(int w, int h) {
+  const double p = static_cast<double>(w) * h, cells = p / 64;
+  return 2 * (5.0 / 9) * kConv64 * (cells * 4 + cells * 16 + p);
+}
+
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
 double median(std::vector<double> v) {
@@ -155,6 +164,51 @@ void bench_conv(int reps) {
   ab("conv", reps, flops, [&](Precision p) {
     at::Tensor y = p == Precision::bf16 ? at::conv2d(x16, w16, {}, 1, 1) : at::conv2d(x, w, {}, 1, 1);
   });
+}
+
+// The least time each measured workload can take on this CPU if every convolution ran as fast as the
+// fastest one measured here (a 64->64 3x3 at 504x376, bf16, channels-last, through libtorch's path or
+// the fused one, best of `reps`): multiply-adds counted from the architecture, as in the GFLOP/s
+// figures. Below this bound only fewer multiply-adds or a faster kernel help, not less overhead.
+void bench_bounds(int reps) {
+  torch::NoGradGuard no_grad;
+  torch::manual_seed(0);
+  const at::Tensor x = torch::rand({1, 64, kHeight, kWidth}).contiguous(at::MemoryFormat::ChannelsLast).to(at::kBFloat16);
+  const at::Tensor w = torch::randn({64, 64, 3, 3}) * 0.05;
+  const at::Tensor w16 = w.contiguous(at::MemoryFormat::ChannelsLast).to(at::kBFloat16);
+  lrf::FusedConv2d fused(w, {}, 1, 1);
+  double best = 1e30;
+  for (int r = 0; r < reps + 1; ++r) {
+    for (int way = 0; way < 2; ++way) {
+      const double t0 = now();
+      if (way == 0) {
+        at::Tensor y = at::conv2d(x, w16, {}, 1, 1);
+      } else {
+        at::Tensor y = fused.forward(x, true);
+      }
+      if (r > 0) best = std::min(best, now() - t0);  // the first round builds the kernels
+    }
+  }
+  const double rate = 2.0 * kConv64 * kWidth * kHeight / best;
+  std::printf("bounds: fastest bf16 64->64 3x3 convolution at %dx%d here: %.0f GFLOP/s\n", kWidth, kHeight, rate * 1e-9);
+  auto bound = [&](const char* what, double flops, const char* target) {
+    std::printf("bounds: %-44s %7.1f GFLOP  >= %7.1f ms  <= %6.2f /s   (%s)\n", what, flops * 1e-9, 1e3 * flops / rate,
+                rate / flops, target);
+  };
+  const double encode = taef2_encode_flops(kWidth, kHeight);
+  const double decode_fused = taef2_decode_flops(kWidth, kHeight) - taef2_upsampling_saving_flops(kWidth, kHeight);
+  bound("decode 504x376 (fused, upsampling as phases)", decode_fused, "issue 17: >= 20 /s");
+  bound("encode 504x376", encode, "issue 17: >= 10 /s");
+  // Stage I, per 192x192 crop (4 per step): the trained encoder forward, data and weight gradients (3
+  // passes), the frozen decoder forward and data gradient through the modules (2 passes, no phases),
+  // the original encoder forward (fused).
+  const double stage1 = 4 * (4 * taef2_encode_flops(192, 192) + 2 * taef2_decode_flops(192, 192));
+  bound("Stage I step (4 crops of 192x192)", stage1, "issue 17: <= 0.3 s");
+  // Stage III, per 128x128 crop (2 + 2 per step): the trained decoder forward, data and weight gradients.
+  const double stage3 = 4 * 3 * taef2_decode_flops(128, 128);
+  bound("Stage III step (4 crops of 128x128)", stage3, "issue 17: <= 0.3 s");
+  std::printf("\n");
+  std::fflush(stdout);
 }
 
 void bench_taef2(lrf::Autoencoder& ae, const std::set<std::string>& cases, int reps) {
@@ -340,21 +394,22 @@ int main(int argc, char** argv) {
       cases.insert(argv[i]);
     }
   }
-  const std::set<std::string> known = {"conv", "encode", "decode", "fused", "backward", "stage1", "stage3", "quality", "kl"};
+  const std::set<std::string> known = {"conv", "bounds", "encode", "decode", "fused", "backward", "stage1", "stage3", "quality", "kl"};
   for (const auto& c : cases) {
     if (!known.count(c)) {
-      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv encode decode fused backward stage1 stage3 quality kl)\n",
+      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv bounds encode decode fused backward stage1 stage3 quality kl)\n",
                    c.c_str());
       return 2;
     }
   }
-  if (cases.empty()) cases = {"conv", "encode", "decode", "backward", "stage1", "stage3", "quality"};
+  if (cases.empty()) cases = {"conv", "bounds", "encode", "decode", "backward", "stage1", "stage3", "quality"};
   lrf::set_thread_count(threads);
   double load[3] = {0, 0, 0};
   if (getloadavg(load, 3) > 0) std::printf("load average at start: %.2f; %d threads; %d repetitions\n", load[0], threads, reps);
   std::printf("CPU native bf16 (AVX512_BF16 or AMX-BF16): %s\n\n", lrf::cpu_reports_bf16() ? "yes" : "no");
   try {
     if (cases.count("conv")) bench_conv(reps);
+    if (cases.count("bounds")) bench_bounds(reps);
     if (cases.count("encode") || cases.count("decode") || cases.count("fused") || cases.count("backward") || cases.count("quality")) {
       auto ae = make_taef2();
       bench_taef2(*ae, cases, reps);
