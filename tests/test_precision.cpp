@@ -277,8 +277,17 @@ TEST(Bf16Taef2, SplitDecodeMatchesTheWholeDecode) {
   at::Tensor inner = local.narrow(2, 8 * reach, 8 * h).narrow(3, 8 * reach, 8 * w);
   at::Tensor expected = whole.narrow(2, 8 * y0, 8 * h).narrow(3, 8 * x0, 8 * w);
   const double diff = (inner - expected).abs().max().item<double>();
-  std::printf("split decode in bf16: max abs diff to the whole decode %.3g\n", diff);
-  EXPECT_EQ(diff, 0.0);
+  // Without context the window's edge is wrong, by far more than the tolerance below.
+  at::Tensor bare = ae->decode_local(features.narrow(2, y0, h).narrow(3, x0, w));
+  const double bare_diff = (bare - expected).abs().max().item<double>();
+  std::printf("split decode in bf16: max abs diff to the whole decode %.3g (without context %.3g)\n", diff, bare_diff);
+  // The same products, summed in float32 in an order oneDNN may choose per image size (the fp32 test
+  // in test_refine.cpp sees ~1e-6): that can move an activation's bf16 rounding by one step, which
+  // the layers after it carry on. Seen: 0 on Sapphire Rapids, one step (2^-8 = 0.0039) on AMD EPYC.
+  // Two steps at the output's magnitude bounds it; a missing cell of context is off by far more.
+  const double step = std::ldexp(1.0, static_cast<int>(std::floor(std::log2(expected.abs().max().item<double>()))) - 7);
+  EXPECT_LE(diff, 2 * step);
+  EXPECT_GT(bare_diff, 10 * step);
 }
 
 // Stage III's use: the decoder trained in bf16 keeps float32 parameters, and their gradients arrive in
