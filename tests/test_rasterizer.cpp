@@ -542,38 +542,44 @@ TEST(Rasterizer, EveryVectorWidthGivesTheSameResult) {
     RenderOutput out;
     std::vector<torch::Tensor> grads;
   };
-  // 16 and 32 channels take the pixel-major colour loops (raster_tiles.h), the others the lane loops.
+  // 16 and 32 channels take the pixel-major colour loops (raster_tiles.h), the others the lane loops. The
+  // second scene is many small splats over several tiles: spans of at most half a vector run two rows at
+  // a time.
   for (int C : {1, 3, 16, 32}) {
-    Scene s = make_scene(60, C, 3, 1, 40 + C);
-    torch::manual_seed(3);
-    const Upstream u = make_upstream(s, true);
-    auto run = [&](int width) {
-      EXPECT_TRUE(set_raster_vector_width(width)) << width;
-      std::vector<torch::Tensor> leaves;
-      for (const auto& p : s.params()) leaves.push_back(p.clone().requires_grad_(true));
-      Result r{render(leaves[0], leaves[1], leaves[2], leaves[3], leaves[4], s.settings), {}};
-      auto loss = (u.image.to(torch::kFloat32) * r.out.image).sum() +
-                  (u.alpha.to(torch::kFloat32) * r.out.alpha).sum() + (u.depth.to(torch::kFloat32) * r.out.depth).sum();
-      loss.backward();
-      for (auto& l : leaves) r.grads.push_back(l.grad());
-      return r;
-    };
-    std::vector<int> widths;
-    for (int w : {1, 4, 8})
-      if (set_raster_vector_width(w)) widths.push_back(w);
-    ASSERT_GE(widths.size(), 2u);  // 1 everywhere, and at least SSE2 on the x86-64 machines lrf targets
-    const Result base = run(widths.front());
-    EXPECT_GT(base.out.alpha.max().item<double>(), 0.5) << "C=" << C << ": the scene draws something";
-    for (size_t k = 1; k < widths.size(); ++k) {
-      const Result other = run(widths[k]);
-      EXPECT_TRUE(torch::equal(base.out.image, other.out.image)) << "C=" << C << " width " << widths[k];
-      EXPECT_TRUE(torch::equal(base.out.alpha, other.out.alpha)) << "C=" << C << " width " << widths[k];
-      EXPECT_TRUE(torch::equal(base.out.depth, other.out.depth)) << "C=" << C << " width " << widths[k];
-      for (size_t p = 0; p < base.grads.size(); ++p) {
-        const double scale = base.grads[p].abs().max().item<double>();
-        EXPECT_GT(scale, 0) << "parameter " << p;
-        EXPECT_LE(max_abs_diff(base.grads[p], other.grads[p]), 1e-5 * scale)
-            << "C=" << C << " width " << widths[k] << " parameter " << p;
+    for (bool narrow : {false, true}) {
+      Scene s = narrow ? make_scene(600, C, 3, 1, 50 + C, 70, 52) : make_scene(60, C, 3, 1, 40 + C);
+      if (narrow) s.log_scales = torch::rand({600, 3}) * 1.2 - 4.4;  // σ 0.6-1.5 px on screen (with the dilation)
+      torch::manual_seed(3);
+      const Upstream u = make_upstream(s, true);
+      auto run = [&](int width) {
+        EXPECT_TRUE(set_raster_vector_width(width)) << width;
+        std::vector<torch::Tensor> leaves;
+        for (const auto& p : s.params()) leaves.push_back(p.clone().requires_grad_(true));
+        Result r{render(leaves[0], leaves[1], leaves[2], leaves[3], leaves[4], s.settings), {}};
+        auto loss = (u.image.to(torch::kFloat32) * r.out.image).sum() +
+                    (u.alpha.to(torch::kFloat32) * r.out.alpha).sum() +
+                    (u.depth.to(torch::kFloat32) * r.out.depth).sum();
+        loss.backward();
+        for (auto& l : leaves) r.grads.push_back(l.grad());
+        return r;
+      };
+      std::vector<int> widths;
+      for (int w : {1, 4, 8})
+        if (set_raster_vector_width(w)) widths.push_back(w);
+      ASSERT_GE(widths.size(), 2u);  // 1 everywhere, and at least SSE2 on the x86-64 machines lrf targets
+      const Result base = run(widths.front());
+      EXPECT_GT(base.out.alpha.max().item<double>(), 0.5) << "C=" << C << ": the scene draws something";
+      for (size_t k = 1; k < widths.size(); ++k) {
+        const Result other = run(widths[k]);
+        EXPECT_TRUE(torch::equal(base.out.image, other.out.image)) << "C=" << C << " width " << widths[k];
+        EXPECT_TRUE(torch::equal(base.out.alpha, other.out.alpha)) << "C=" << C << " width " << widths[k];
+        EXPECT_TRUE(torch::equal(base.out.depth, other.out.depth)) << "C=" << C << " width " << widths[k];
+        for (size_t p = 0; p < base.grads.size(); ++p) {
+          const double scale = base.grads[p].abs().max().item<double>();
+          EXPECT_GT(scale, 0) << "parameter " << p;
+          EXPECT_LE(max_abs_diff(base.grads[p], other.grads[p]), 1e-5 * scale)
+              << "C=" << C << " width " << widths[k] << " parameter " << p << (narrow ? " (narrow)" : "");
+        }
       }
     }
   }

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -64,13 +65,29 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   ASSERT_EQ(r.code, 0) << r.output;
   auto metrics = lrf::read_json_file(out + "/metrics.json");
   EXPECT_EQ(metrics["views"].size(), 2u);  // views 0 and 8 of 12
-  // Measured on this scene: the SfM-initialised field before training scores 11.4 dB on the test views,
-  // 300 steps capped at 15k Gaussians 16.8-19.2 dB (10 views on a ring: the fit overfits, and the
-  // score moves with schedule, loss-kernel and thread-count changes), so the bound sits halfway.
-  std::printf("synthetic 64x48, 300 steps: test PSNR %.2f dB, SSIM %.3f\n", metrics["psnr"].get<double>(),
-              metrics["ssim"].get<double>());
-  EXPECT_GT(metrics["psnr"].get<double>(), 14.5) << metrics.dump();
-  EXPECT_GT(metrics["ssim"].get<double>(), 0.5);
+  // Measured on this scene: the SfM-initialised field before training scores 11.4 dB on the test views.
+  // After 300 steps capped at 15k Gaussians the training views reach 20.5-22.2 dB (mean of the last five
+  // logged), while the test views land anywhere in 12.9-18.6 dB (SSIM 0.455-0.573; 24 runs: seeds 0-5,
+  // 1 and 2 threads, two builds that differ only in float rounding): 10 views on a ring overfit, and
+  // which way the held-out views go is chaotic. So the fit is held to a bound well up its range (the
+  // untrained field's views are near 11 dB), the held-out views only to beating the untrained field.
+  std::ifstream log(out + "/train_log.csv");
+  std::string line, header;
+  std::getline(log, header);
+  std::vector<double> fit;
+  while (std::getline(log, line)) {
+    const size_t a = line.find(','), b = line.find(',', a + 1), c = line.find(',', b + 1);
+    if (c != std::string::npos && c > b + 1) fit.push_back(std::stod(line.substr(b + 1, c - b - 1)));
+  }
+  ASSERT_GE(fit.size(), 5u) << "train_log.csv has no PSNR column";
+  double last_fit = 0;
+  for (size_t k = fit.size() - 5; k < fit.size(); ++k) last_fit += fit[k] / 5;
+  std::printf("synthetic 64x48, 300 steps: training views %.2f dB (last 5 logged), test PSNR %.2f dB, SSIM %.3f\n",
+              last_fit, metrics["psnr"].get<double>(), metrics["ssim"].get<double>());
+  EXPECT_EQ(header.rfind("step,loss,psnr,", 0), 0u) << header;
+  EXPECT_GT(last_fit, 19.0);
+  EXPECT_GT(metrics["psnr"].get<double>(), 12.0) << metrics.dump();
+  EXPECT_GT(metrics["ssim"].get<double>(), 0.42);
 
   r = lrf_run("-q render " + out + " --split test --scale 2 -o " + (root / "renders").string());
   ASSERT_EQ(r.code, 0) << r.output;

@@ -7,6 +7,10 @@
 // the per-pixel front-to-back result (each pixel sees the same splats in the same order) at a cost
 // proportional to the splats' footprints rather than list length × 256. Pixels go kWidth at a time along a
 // row; lanes that do not take part carry α = 0, which leaves every per-pixel quantity unchanged bit for bit.
+// A splat at most half a vector wide runs two rows per vector instead, half the lanes on each (most splats
+// of a dense RGB field are that narrow: fern's 7k-step field at 504×378 spans 1-4 pixels in 70 % of its
+// tile entries, so a row of 8 lanes carried 5.1 pixels on average). Each lane computes what it would on its
+// own row, bit for bit.
 //
 // Many channels (latent fields, C = 16 or 32) change the layout of the per-channel work. At latent
 // resolution a splat covers one to three pixels of a row, so a group of kWidth lanes blends about two of
@@ -19,6 +23,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "lrf/splat/raster/raster_kernels.h"
@@ -28,10 +33,46 @@ namespace lrf::splat::tiles {
 
 // Tile-local state is indexed p = row·kTileSize + column whatever the tile's clipped width, so that a group
 // of lanes never straddles two rows. Per-pixel arrays get spare floats: a group starting at the last pixels
-// of a row may reach up to kWidth − 1 past the tile (those lanes are masked, but they are loaded and
-// stored back unchanged).
+// of a row may reach up to kWidth − 1 past the tile, and the second half of a pair of rows lies a row
+// below the first, one past the tile's last row for a splat's odd last row (those lanes are masked, but
+// they are loaded and stored back unchanged).
 constexpr int kTilePixels = kTileSize * kTileSize;
-constexpr int kTileStorage = kTilePixels + 8;
+constexpr int kTileStorage = kTilePixels + kTileSize + 8;
+
+// Whether a width runs narrow spans two rows at a time (its vectors split in two halves).
+template <class V>
+constexpr bool row_pairs() {
+  return V::kWidth >= 4;
+}
+
+// A group of lanes of tile state at x: one vector, or (paired) two halves a tile row apart.
+template <class V, bool kPaired>
+struct GroupAccess {
+  using F = typename V::F;
+  using I = typename V::I;
+  static F load(const float* x) {
+    if constexpr (kPaired) return V::load_halves(x, x + kTileSize);
+    else return V::load(x);
+  }
+  static void store(float* x, F v) {
+    if constexpr (kPaired) V::store_halves(x, x + kTileSize, v);
+    else V::store(x, v);
+  }
+  static I loadi(const int32_t* x) {
+    if constexpr (kPaired) return V::loadi_halves(x, x + kTileSize);
+    else return V::loadi(x);
+  }
+  static void storei(int32_t* x, I v) {
+    if constexpr (kPaired) V::storei_halves(x, x + kTileSize, v);
+    else V::storei(x, v);
+  }
+  // The tile pixel of lane l of the group at p.
+  static int pixel(int p, int l) {
+    constexpr int kHalf = V::kWidth / 2;
+    return kPaired && l >= kHalf ? p + kTileSize + l - kHalf : p + l;
+  }
+};
+
 constexpr int kGeomGrads = 7;  // d xy (2), d conic (3), d opacity, d depth
 
 template <int kC, class V>
@@ -65,6 +106,24 @@ inline void splat_alpha_row(float A, float B, float C, float o, float dx0, float
     V::store(alpha + k, V::and_(keep, a));
     V::store(gauss + k, g);
   }
+}
+
+// The same α and e^−σ as splat_alpha_row, bit for bit, for the first kWidth/2 pixels of two rows: lanes
+// [0, kWidth/2) on row dy_lo, the others on row dy_hi. Writes one vector to alpha and gauss.
+template <class V>
+inline void splat_alpha_pair(float A, float B, float C, float o, float dx0, float dy_lo, float dy_hi, float* alpha,
+                             float* gauss) {
+  using F = typename V::F;
+  const F a2 = V::set1(-0.5f * A), vo = V::set1(o);
+  const F by = V::set1_halves(-B * dy_lo, -B * dy_hi);
+  const F cy = V::set1_halves(-0.5f * C * dy_lo * dy_lo, -0.5f * C * dy_hi * dy_hi);
+  const F dx = V::sub(V::set1(dx0), V::add(V::set1(0.f), V::to_float(V::ramp_halves())));
+  const F power = V::add(V::add(V::mul(V::mul(a2, dx), dx), V::mul(by, dx)), cy);
+  const F g = simd::exp_nonpositive<V>(power);
+  const F a = V::min(V::set1(kMaxAlpha), V::mul(vo, g));
+  const F keep = V::and_(V::cmple(power, V::zero()), V::cmpge(a, V::set1(kMinAlpha)));
+  V::store(alpha, V::and_(keep, a));
+  V::store(gauss, g);
 }
 
 template <int kC, class V>
@@ -105,49 +164,69 @@ void forward_tile(int tile, const RasterInputs& in, const ColorSource& source, c
     const float* col = nullptr;  // evaluated when the splat is first blended
     alignas(32) float row_alpha[kTileSize], row_gauss[kTileSize];
     const int len = span.j1 - span.j0;
+    // One group of lanes: pixels p.. (or, paired, p.. and p + kTileSize..) with α alpha on the lanes in use.
+    auto blend_group = [&](auto paired, int p, F alpha_in, I in_use) {
+      constexpr bool kPaired = decltype(paired)::value;
+      using G = GroupAccess<V, kPaired>;
+      // Lanes not in use, already saturated, or skipped by α are neutral: α = 0 changes nothing.
+      const I dn = G::loadi(done + p);
+      const F live = V::as_float(V::andnoti(dn, in_use));
+      const F alpha = V::and_(alpha_in, live);
+      const F t = G::load(T + p);
+      const F next_T = V::mul(t, V::sub(one, alpha));
+      const F hit = V::cmpneq(alpha, V::zero());
+      const F stop = V::and_(hit, V::cmplt(next_T, min_T));
+      const int stop_bits = V::movemask(stop);
+      if (stop_bits) {
+        G::storei(done + p, V::ori(dn, V::as_int(stop)));
+        remaining -= __builtin_popcount(stop_bits);
+      }
+      const F blend = V::andnot(stop, hit);
+      if (!V::movemask(blend)) return;
+      if (!col) col = source.get(g, C);
+      const F a = V::and_(alpha, blend);
+      const F weight = V::mul(a, t);
+      if constexpr (kPixelMajor) {
+        alignas(64) float w[V::kWidth];
+        V::store(w, weight);
+        for (int bits = V::movemask(blend); bits; bits &= bits - 1) {
+          const int l = __builtin_ctz(static_cast<unsigned>(bits));
+          add_weighted_channels<kC, V>(acc + G::pixel(p, l) * kC, col, w[l]);
+        }
+      } else {
+        for (int c = 0; c < C; ++c) {
+          float* dst = acc + c * kTileStorage + p;
+          G::store(dst, V::add(G::load(dst), V::mul(V::set1(col[c]), weight)));
+        }
+      }
+      G::store(acc_depth + p, V::add(G::load(acc_depth + p), V::mul(vz, weight)));
+      G::store(T + p, V::mul(t, V::sub(one, a)));  // T·(1 − 0) = T on the other lanes, bit for bit
+      const I bl = V::as_int(blend);
+      G::storei(last + p, V::ori(V::andi(bl, vpos), V::andnoti(bl, G::loadi(last + p))));
+    };
+    const int row0 = (span.i0 - y0) * kTileSize + (span.j0 - x0);
+    if constexpr (row_pairs<V>()) {
+      if (2 * len <= V::kWidth) {
+        constexpr int kHalf = V::kWidth / 2;
+        const I half_lane = V::ramp_halves(), vlen = V::set1i(len);
+        const I low_half = V::cmplti(ramp, V::set1i(kHalf));
+        const float dx0 = gx - (span.j0 + 0.5f);
+        for (int i = span.i0; i < span.i1; i += 2) {
+          const bool second = i + 1 < span.i1;
+          splat_alpha_pair<V>(A, B, Cc, o, dx0, gy - (i + 0.5f), gy - ((i + 1) + 0.5f), row_alpha, row_gauss);
+          I in_use = V::cmplti(half_lane, vlen);
+          if (!second) in_use = V::andi(in_use, low_half);
+          blend_group(std::true_type{}, row0 + (i - span.i0) * kTileSize, V::load(row_alpha), in_use);
+        }
+        continue;
+      }
+    }
     const I vlen = V::set1i(len);
     for (int i = span.i0; i < span.i1; ++i) {
       splat_alpha_row<V>(A, B, Cc, o, gx - (span.j0 + 0.5f), gy - (i + 0.5f), len, row_alpha, row_gauss);
-      const int row = (i - y0) * kTileSize + (span.j0 - x0);
-      for (int q = 0; q < len; q += V::kWidth) {
-        const int p = row + q;
-        // Lanes past the span, already saturated, or skipped by α are neutral: α = 0 changes nothing.
-        const I in_span = V::cmplti(V::addi(V::set1i(q), ramp), vlen);
-        const I dn = V::loadi(done + p);
-        const F live = V::as_float(V::andnoti(dn, in_span));
-        const F alpha = V::and_(V::load(row_alpha + q), live);
-        const F t = V::load(T + p);
-        const F next_T = V::mul(t, V::sub(one, alpha));
-        const F hit = V::cmpneq(alpha, V::zero());
-        const F stop = V::and_(hit, V::cmplt(next_T, min_T));
-        const int stop_bits = V::movemask(stop);
-        if (stop_bits) {
-          V::storei(done + p, V::ori(dn, V::as_int(stop)));
-          remaining -= __builtin_popcount(stop_bits);
-        }
-        const F blend = V::andnot(stop, hit);
-        if (!V::movemask(blend)) continue;
-        if (!col) col = source.get(g, C);
-        const F a = V::and_(alpha, blend);
-        const F weight = V::mul(a, t);
-        if constexpr (kPixelMajor) {
-          alignas(64) float w[V::kWidth];
-          V::store(w, weight);
-          for (int bits = V::movemask(blend); bits; bits &= bits - 1) {
-            const int l = __builtin_ctz(static_cast<unsigned>(bits));
-            add_weighted_channels<kC, V>(acc + (p + l) * kC, col, w[l]);
-          }
-        } else {
-          for (int c = 0; c < C; ++c) {
-            float* dst = acc + c * kTileStorage + p;
-            V::store(dst, V::add(V::load(dst), V::mul(V::set1(col[c]), weight)));
-          }
-        }
-        V::store(acc_depth + p, V::add(V::load(acc_depth + p), V::mul(vz, weight)));
-        V::store(T + p, V::mul(t, V::sub(one, a)));  // T·(1 − 0) = T on the other lanes, bit for bit
-        const I bl = V::as_int(blend);
-        V::storei(last + p, V::ori(V::andi(bl, vpos), V::andnoti(bl, V::loadi(last + p))));
-      }
+      const int row = row0 + (i - span.i0) * kTileSize;
+      for (int q = 0; q < len; q += V::kWidth)
+        blend_group(std::false_type{}, row + q, V::load(row_alpha + q), V::cmplti(V::addi(V::set1i(q), ramp), vlen));
     }
   }
 
@@ -261,71 +340,97 @@ void backward_tile(int tile, const RasterInputs& in, const RasterBackwardInputs&
     F v_gx = V::zero(), v_gy = V::zero(), v_A = V::zero(), v_B = V::zero(), v_C = V::zero(), v_o = V::zero();
     F v_z = V::zero();
     const F vz = V::set1(in.depth[g]), vo = V::set1(o), vA = V::set1(A), vB = V::set1(B), vCc = V::set1(Cc);
-    const I vpos = V::set1i(pos), vlen = V::set1i(len);
-    for (int i = span.i0; i < span.i1; ++i) {
-      const float dy = gy - (i + 0.5f), dx0 = gx - (span.j0 + 0.5f);
-      splat_alpha_row<V>(A, B, Cc, o, dx0, dy, len, row_alpha, row_gauss);
-      const int row = (i - y0) * kTileSize + (span.j0 - x0);
-      const F vdy = V::set1(dy), vdx0 = V::set1(dx0);
-      for (int q = 0; q < len; q += V::kWidth) {
-        const int p = row + q;
-        const I lane = V::addi(V::set1i(q), ramp);
-        // Live lanes: inside the span and not behind the pixel's last blended splat (pos <= last).
-        const I live = V::andnoti(V::cmpgti(vpos, V::loadi(st.last + p)), V::cmplti(lane, vlen));
-        const F alpha = V::and_(V::load(row_alpha + q), V::as_float(live));
-        const F valid = V::cmpneq(alpha, V::zero());
-        if (!V::movemask(valid)) continue;
-        if (!touched) {
-          if constexpr (kPixelMajor)
-            std::fill(dcol_sum, dcol_sum + C, 0.f);
-          else
-            for (int c = 0; c < C; ++c) dcolv[c] = V::zero();
-          touched = true;
+    const I vpos = V::set1i(pos);
+    // One group of lanes: pixels p.. (or, paired, p.. and p + kTileSize..), with α, e^−σ, the lanes in use
+    // and each lane's offset (dx, dy) from the pixel centre to the mean.
+    auto group = [&](auto paired, int p, F alpha_in, F gauss, I in_use, F dx, F vdy) {
+      constexpr bool kPaired = decltype(paired)::value;
+      using G = GroupAccess<V, kPaired>;
+      // Live lanes: in use and not behind the pixel's last blended splat (pos <= last).
+      const I live = V::andnoti(V::cmpgti(vpos, G::loadi(st.last + p)), in_use);
+      const F alpha = V::and_(alpha_in, V::as_float(live));
+      const F valid = V::cmpneq(alpha, V::zero());
+      if (!V::movemask(valid)) return;
+      if (!touched) {
+        if constexpr (kPixelMajor)
+          std::fill(dcol_sum, dcol_sum + C, 0.f);
+        else
+          for (int c = 0; c < C; ++c) dcolv[c] = V::zero();
+        touched = true;
+      }
+      const F inv = V::div(one, V::sub(one, alpha));
+      const F Ti = V::mul(G::load(st.T + p), inv);
+      const F weight = V::mul(alpha, Ti);
+      F cg = V::zero();
+      if constexpr (kPixelMajor) {
+        // Per valid pixel: cg = col · (d loss / d pixel) and the colour gradient += weight · (d loss / d pixel).
+        alignas(64) float w[V::kWidth], cgl[V::kWidth] = {};
+        V::store(w, weight);
+        for (int bits = V::movemask(valid); bits; bits &= bits - 1) {
+          const int l = __builtin_ctz(static_cast<unsigned>(bits));
+          const float* gp = grad_pixels + G::pixel(p, l) * kC;
+          F dot = V::zero();
+          for (int c = 0; c < kC; c += V::kWidth) dot = V::add(dot, V::mul(V::load(col + c), V::load(gp + c)));
+          cgl[l] = V::hsum(dot);
+          add_weighted_channels<kC, V>(dcol_sum, gp, w[l]);
         }
-        const F gauss = V::load(row_gauss + q);
-        const F inv = V::div(one, V::sub(one, alpha));
-        const F Ti = V::mul(V::load(st.T + p), inv);
-        const F weight = V::mul(alpha, Ti);
-        F cg = V::zero();
-        if constexpr (kPixelMajor) {
-          // Per valid pixel: cg = col · (d loss / d pixel) and the colour gradient += weight · (d loss / d pixel).
-          alignas(64) float w[V::kWidth], cgl[V::kWidth] = {};
-          V::store(w, weight);
-          for (int bits = V::movemask(valid); bits; bits &= bits - 1) {
-            const int l = __builtin_ctz(static_cast<unsigned>(bits));
-            const float* gp = grad_pixels + (p + l) * kC;
-            F dot = V::zero();
-            for (int c = 0; c < kC; c += V::kWidth) dot = V::add(dot, V::mul(V::load(col + c), V::load(gp + c)));
-            cgl[l] = V::hsum(dot);
-            add_weighted_channels<kC, V>(dcol_sum, gp, w[l]);
-          }
-          cg = V::load(cgl);
-        } else {
-          for (int c = 0; c < C; ++c) {
-            const F gp = V::load(grad_pixels + c * kTileStorage + p);
-            cg = V::add(cg, V::mul(V::set1(col[c]), gp));
-            dcolv[c] = V::add(dcolv[c], V::mul(weight, gp));
-          }
+        cg = V::load(cgl);
+      } else {
+        for (int c = 0; c < C; ++c) {
+          const F gp = G::load(grad_pixels + c * kTileStorage + p);
+          cg = V::add(cg, V::mul(V::set1(col[c]), gp));
+          dcolv[c] = V::add(dcolv[c], V::mul(weight, gp));
         }
-        const F rg = V::load(st.RG + p), rd = V::load(st.RD + p), gd = V::load(st.gd + p);
-        F d_alpha = V::sub(V::mul(Ti, cg), V::mul(V::add(rg, V::load(st.bgT + p)), inv));
-        d_alpha = V::add(d_alpha, V::mul(V::load(st.gaT + p), inv));
-        d_alpha = V::add(d_alpha, V::mul(gd, V::sub(V::mul(vz, Ti), V::mul(rd, inv))));
-        v_z = V::add(v_z, V::mul(gd, weight));
-        V::store(st.RG + p, V::add(rg, V::mul(cg, weight)));
-        V::store(st.RD + p, V::add(rd, V::mul(vz, weight)));
-        V::store(st.T + p, Ti);
-        // α = o·e^power moves with o and the shape only where it is not clamped at 0.99.
-        const F moving = V::and_(valid, V::cmple(V::mul(vo, gauss), max_alpha));
-        const F da = V::and_(d_alpha, moving);
-        v_o = V::add(v_o, V::mul(gauss, da));
-        const F d_power = V::mul(da, alpha);
-        const F dx = V::sub(vdx0, V::to_float(lane));
-        v_gx = V::sub(v_gx, V::mul(d_power, V::add(V::mul(vA, dx), V::mul(vB, vdy))));
-        v_gy = V::sub(v_gy, V::mul(d_power, V::add(V::mul(vCc, vdy), V::mul(vB, dx))));
-        v_A = V::sub(v_A, V::mul(V::mul(d_power, half), V::mul(dx, dx)));
-        v_B = V::sub(v_B, V::mul(d_power, V::mul(dx, vdy)));
-        v_C = V::sub(v_C, V::mul(V::mul(d_power, half), V::mul(vdy, vdy)));
+      }
+      const F rg = G::load(st.RG + p), rd = G::load(st.RD + p), gd = G::load(st.gd + p);
+      F d_alpha = V::sub(V::mul(Ti, cg), V::mul(V::add(rg, G::load(st.bgT + p)), inv));
+      d_alpha = V::add(d_alpha, V::mul(G::load(st.gaT + p), inv));
+      d_alpha = V::add(d_alpha, V::mul(gd, V::sub(V::mul(vz, Ti), V::mul(rd, inv))));
+      v_z = V::add(v_z, V::mul(gd, weight));
+      G::store(st.RG + p, V::add(rg, V::mul(cg, weight)));
+      G::store(st.RD + p, V::add(rd, V::mul(vz, weight)));
+      G::store(st.T + p, Ti);
+      // α = o·e^power moves with o and the shape only where it is not clamped at 0.99.
+      const F moving = V::and_(valid, V::cmple(V::mul(vo, gauss), max_alpha));
+      const F da = V::and_(d_alpha, moving);
+      v_o = V::add(v_o, V::mul(gauss, da));
+      const F d_power = V::mul(da, alpha);
+      v_gx = V::sub(v_gx, V::mul(d_power, V::add(V::mul(vA, dx), V::mul(vB, vdy))));
+      v_gy = V::sub(v_gy, V::mul(d_power, V::add(V::mul(vCc, vdy), V::mul(vB, dx))));
+      v_A = V::sub(v_A, V::mul(V::mul(d_power, half), V::mul(dx, dx)));
+      v_B = V::sub(v_B, V::mul(d_power, V::mul(dx, vdy)));
+      v_C = V::sub(v_C, V::mul(V::mul(d_power, half), V::mul(vdy, vdy)));
+    };
+    const int row0 = (span.i0 - y0) * kTileSize + (span.j0 - x0);
+    const float dx0 = gx - (span.j0 + 0.5f);
+    const F vdx0 = V::set1(dx0);
+    const I vlen = V::set1i(len);
+    bool paired_rows = false;
+    if constexpr (row_pairs<V>()) {
+      if (2 * len <= V::kWidth) {
+        paired_rows = true;
+        const I half_lane = V::ramp_halves(), low_half = V::cmplti(ramp, V::set1i(V::kWidth / 2));
+        const I lanes_in_span = V::cmplti(half_lane, vlen);
+        const F dx = V::sub(vdx0, V::to_float(half_lane));
+        for (int i = span.i0; i < span.i1; i += 2) {
+          const float dy_lo = gy - (i + 0.5f), dy_hi = gy - ((i + 1) + 0.5f);
+          splat_alpha_pair<V>(A, B, Cc, o, dx0, dy_lo, dy_hi, row_alpha, row_gauss);
+          const I in_use = i + 1 < span.i1 ? lanes_in_span : V::andi(lanes_in_span, low_half);
+          group(std::true_type{}, row0 + (i - span.i0) * kTileSize, V::load(row_alpha), V::load(row_gauss), in_use,
+                dx, V::set1_halves(dy_lo, dy_hi));
+        }
+      }
+    }
+    if (!paired_rows) {
+      for (int i = span.i0; i < span.i1; ++i) {
+        const float dy = gy - (i + 0.5f);
+        splat_alpha_row<V>(A, B, Cc, o, dx0, dy, len, row_alpha, row_gauss);
+        const int row = row0 + (i - span.i0) * kTileSize;
+        for (int q = 0; q < len; q += V::kWidth) {
+          const I lane = V::addi(V::set1i(q), ramp);
+          group(std::false_type{}, row + q, V::load(row_alpha + q), V::load(row_gauss + q),
+                V::cmplti(lane, vlen), V::sub(vdx0, V::to_float(lane)), V::set1(dy));
+        }
       }
     }
     if (!touched) continue;

@@ -122,6 +122,24 @@ struct Sse2 {
   static I truncate(F v) { return _mm_cvttps_epi32(v); }
   static I shift_left(I v, int bits) { return _mm_slli_epi32(v, bits); }
   static I shift_right(I v, int bits) { return _mm_srli_epi32(v, bits); }
+
+  // Two half vectors: lanes [0, 2) at lo, [2, 4) at hi (two rows of a tile at once).
+  static F load_halves(const float* lo, const float* hi) {
+    return _mm_castpd_ps(_mm_loadh_pd(_mm_load_sd(reinterpret_cast<const double*>(lo)),
+                                      reinterpret_cast<const double*>(hi)));
+  }
+  static void store_halves(float* lo, float* hi, F v) {
+    _mm_storel_pd(reinterpret_cast<double*>(lo), _mm_castps_pd(v));
+    _mm_storeh_pd(reinterpret_cast<double*>(hi), _mm_castps_pd(v));
+  }
+  static I loadi_halves(const int32_t* lo, const int32_t* hi) {
+    return as_int(load_halves(reinterpret_cast<const float*>(lo), reinterpret_cast<const float*>(hi)));
+  }
+  static void storei_halves(int32_t* lo, int32_t* hi, I v) {
+    store_halves(reinterpret_cast<float*>(lo), reinterpret_cast<float*>(hi), as_float(v));
+  }
+  static F set1_halves(float lo, float hi) { return _mm_setr_ps(lo, lo, hi, hi); }
+  static I ramp_halves() { return _mm_setr_epi32(0, 1, 0, 1); }
 };
 #endif
 
@@ -173,6 +191,18 @@ struct Avx2 {
   static I truncate(F v) { return _mm256_cvttps_epi32(v); }
   static I shift_left(I v, int bits) { return _mm256_slli_epi32(v, bits); }
   static I shift_right(I v, int bits) { return _mm256_srli_epi32(v, bits); }
+
+  // Two half vectors: lanes [0, 4) at lo, [4, 8) at hi (two rows of a tile at once).
+  static F load_halves(const float* lo, const float* hi) { return _mm256_loadu2_m128(hi, lo); }
+  static void store_halves(float* lo, float* hi, F v) { _mm256_storeu2_m128(hi, lo, v); }
+  static I loadi_halves(const int32_t* lo, const int32_t* hi) {
+    return _mm256_loadu2_m128i(reinterpret_cast<const __m128i*>(hi), reinterpret_cast<const __m128i*>(lo));
+  }
+  static void storei_halves(int32_t* lo, int32_t* hi, I v) {
+    _mm256_storeu2_m128i(reinterpret_cast<__m128i*>(hi), reinterpret_cast<__m128i*>(lo), v);
+  }
+  static F set1_halves(float lo, float hi) { return _mm256_setr_m128(_mm_set1_ps(lo), _mm_set1_ps(hi)); }
+  static I ramp_halves() { return _mm256_setr_epi32(0, 1, 2, 3, 0, 1, 2, 3); }
 };
 #endif
 
