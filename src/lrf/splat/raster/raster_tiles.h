@@ -87,10 +87,25 @@ inline void add_weighted_channels(float* acc, const float* col, float w) {
   for (int c = 0; c < kC; c += V::kWidth) V::store(acc + c, V::add(V::load(acc + c), V::mul(V::load(col + c), vw)));
 }
 
+// α and e^−σ on one vector of pixels at offsets (dx, dy) = mean − pixel centre, given a2 = −½A, by = −B·dy
+// and cy = −½C·dy² per lane: α is 0 where the splat is skipped (σ < 0 from rounding, or α < 1/255). Every
+// layout of pixels in lanes goes through here, so that forward and backward, rows and pairs of rows, take
+// the same decisions bit for bit.
+template <class V>
+inline void splat_alpha_lanes(typename V::F a2, typename V::F by, typename V::F cy, typename V::F vo,
+                              typename V::F dx, float* alpha, float* gauss) {
+  using F = typename V::F;
+  const F power = V::add(V::add(V::mul(V::mul(a2, dx), dx), V::mul(by, dx)), cy);
+  const F g = simd::exp_nonpositive<V>(power);
+  const F a = V::min(V::set1(kMaxAlpha), V::mul(vo, g));
+  const F keep = V::and_(V::cmple(power, V::zero()), V::cmpge(a, V::set1(kMinAlpha)));
+  V::store(alpha, V::and_(keep, a));
+  V::store(gauss, g);
+}
+
 // α and e^−σ of a splat along one pixel row of at most kTileSize pixels: pixel k is at offset
-// (dx0 − k, dy) = mean − pixel centre. α is 0 where the splat is skipped (σ < 0 from rounding, or
-// α < 1/255). Forward and backward both call this, so that they take the same decisions bit for bit.
-// alpha and gauss must hold kTileSize floats (whole groups are written; kTileSize is a multiple of kWidth).
+// (dx0 − k, dy). alpha and gauss must hold kTileSize floats (whole groups are written; kTileSize is a
+// multiple of kWidth).
 template <class V>
 inline void splat_alpha_row(float A, float B, float C, float o, float dx0, float dy, int len, float* alpha,
                             float* gauss) {
@@ -99,31 +114,20 @@ inline void splat_alpha_row(float A, float B, float C, float o, float dx0, float
   const F vdx0 = V::set1(dx0), ramp = V::to_float(V::rampi());
   for (int k = 0; k < len; k += V::kWidth) {
     const F dx = V::sub(vdx0, V::add(V::set1(static_cast<float>(k)), ramp));
-    const F power = V::add(V::add(V::mul(V::mul(a2, dx), dx), V::mul(by, dx)), cy);
-    const F g = simd::exp_nonpositive<V>(power);
-    const F a = V::min(V::set1(kMaxAlpha), V::mul(vo, g));
-    const F keep = V::and_(V::cmple(power, V::zero()), V::cmpge(a, V::set1(kMinAlpha)));
-    V::store(alpha + k, V::and_(keep, a));
-    V::store(gauss + k, g);
+    splat_alpha_lanes<V>(a2, by, cy, vo, dx, alpha + k, gauss + k);
   }
 }
 
-// The same α and e^−σ as splat_alpha_row, bit for bit, for the first kWidth/2 pixels of two rows: lanes
-// [0, kWidth/2) on row dy_lo, the others on row dy_hi. Writes one vector to alpha and gauss.
+// The same for the first kWidth/2 pixels of two rows: lanes [0, kWidth/2) on row dy_lo, the others on row
+// dy_hi. Writes one vector to alpha and gauss.
 template <class V>
 inline void splat_alpha_pair(float A, float B, float C, float o, float dx0, float dy_lo, float dy_hi, float* alpha,
                              float* gauss) {
   using F = typename V::F;
-  const F a2 = V::set1(-0.5f * A), vo = V::set1(o);
   const F by = V::set1_halves(-B * dy_lo, -B * dy_hi);
   const F cy = V::set1_halves(-0.5f * C * dy_lo * dy_lo, -0.5f * C * dy_hi * dy_hi);
   const F dx = V::sub(V::set1(dx0), V::add(V::set1(0.f), V::to_float(V::ramp_halves())));
-  const F power = V::add(V::add(V::mul(V::mul(a2, dx), dx), V::mul(by, dx)), cy);
-  const F g = simd::exp_nonpositive<V>(power);
-  const F a = V::min(V::set1(kMaxAlpha), V::mul(vo, g));
-  const F keep = V::and_(V::cmple(power, V::zero()), V::cmpge(a, V::set1(kMinAlpha)));
-  V::store(alpha, V::and_(keep, a));
-  V::store(gauss, g);
+  splat_alpha_lanes<V>(V::set1(-0.5f * A), by, cy, V::set1(o), dx, alpha, gauss);
 }
 
 template <int kC, class V>
