@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
 
 #include <gtest/gtest.h>
 #include <torch/torch.h>
@@ -228,13 +229,9 @@ class FeatureField : public ::testing::Test {
   }
   // Mean training loss of the first and of the last logged rows (10 steps each).
   static std::pair<double, double> first_and_last_loss(const std::string& out) {
-    std::ifstream in(*dir_ / (out + "/train_log.csv"));
-    std::string line, first, last;
-    std::getline(in, line);
-    while (std::getline(in, line))
-      if (!line.empty()) (first.empty() ? first : last) = line;
-    auto loss = [](const std::string& row) { return std::stod(row.substr(row.find(',') + 1)); };
-    return {loss(first), loss(last)};
+    const std::vector<double> losses = lrf::test::logged_column(*dir_ / (out + "/train_log.csv"), 1);
+    if (losses.empty()) throw std::runtime_error(out + "/train_log.csv has no rows");
+    return {losses.front(), losses.back()};
   }
   static lrf::test::TempDir* dir_;
 };

@@ -3,8 +3,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -104,6 +106,21 @@ class ScopedPrecision {
 // Test-name suffix for tests parametrised by precision ("fp32", "bf16").
 inline std::string precision_param_name(const ::testing::TestParamInfo<Precision>& info) {
   return precision_name(info.param);
+}
+
+// Column `column` (0 = step) of a run's train_log.csv, one value per logged row.
+inline std::vector<double> logged_column(const std::string& log, int column) {
+  std::ifstream in(log);
+  std::string line;
+  std::getline(in, line);  // the header
+  std::vector<double> values;
+  while (std::getline(in, line)) {
+    if (line.empty()) continue;
+    size_t start = 0;
+    for (int k = 0; k < column; ++k) start = line.find(',', start) + 1;
+    values.push_back(std::stod(line.substr(start)));
+  }
+  return values;
 }
 
 }  // namespace lrf::test

@@ -173,11 +173,7 @@ LatentNerfResult LatentNerfRun::result_;
 
 // Mean loss of the log's rows [begin, end) (10 steps each).
 double mean_logged_loss(const std::string& log, size_t begin, size_t end) {
-  std::ifstream in(log);
-  std::string line;
-  std::getline(in, line);
-  std::vector<double> losses;
-  while (std::getline(in, line)) losses.push_back(std::stod(line.substr(line.find(',') + 1)));
+  const std::vector<double> losses = lrf::test::logged_column(log, 1);
   EXPECT_GE(losses.size(), end);
   double sum = 0;
   for (size_t k = begin; k < end && k < losses.size(); ++k) sum += losses[k];

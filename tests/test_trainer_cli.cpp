@@ -11,6 +11,7 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/run_info.h"
+#include "test_helpers.h"
 
 namespace fs = std::filesystem;
 
@@ -72,19 +73,15 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   // which way the held-out views go is chaotic. So the fit is held to a bound well up its range (the
   // untrained field's views are near 11 dB), the held-out views only to beating the untrained field.
   std::ifstream log(out + "/train_log.csv");
-  std::string line, header;
+  std::string header;
   std::getline(log, header);
-  std::vector<double> fit;
-  while (std::getline(log, line)) {
-    const size_t a = line.find(','), b = line.find(',', a + 1), c = line.find(',', b + 1);
-    if (c != std::string::npos && c > b + 1) fit.push_back(std::stod(line.substr(b + 1, c - b - 1)));
-  }
-  ASSERT_GE(fit.size(), 5u) << "train_log.csv has no PSNR column";
+  EXPECT_EQ(header.rfind("step,loss,psnr,", 0), 0u) << header;
+  const std::vector<double> fit = lrf::test::logged_column(out + "/train_log.csv", 2);
+  ASSERT_GE(fit.size(), 5u) << "train_log.csv has too few rows";
   double last_fit = 0;
   for (size_t k = fit.size() - 5; k < fit.size(); ++k) last_fit += fit[k] / 5;
   std::printf("synthetic 64x48, 300 steps: training views %.2f dB (last 5 logged), test PSNR %.2f dB, SSIM %.3f\n",
               last_fit, metrics["psnr"].get<double>(), metrics["ssim"].get<double>());
-  EXPECT_EQ(header.rfind("step,loss,psnr,", 0), 0u) << header;
   EXPECT_GT(last_fit, 19.0);
   EXPECT_GT(metrics["psnr"].get<double>(), 12.0) << metrics.dump();
   EXPECT_GT(metrics["ssim"].get<double>(), 0.42);
