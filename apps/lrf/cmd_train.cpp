@@ -38,6 +38,8 @@ struct TrainOptions {
   int64_t checkpoint_every = 1000;
   bool sparse_adam = false;
   bool white_background = false;
+  int coarse_factor = 1;       // rgb: > 1 trains the first steps on reduced views
+  int64_t coarse_until = -1;   // the coarse phase's last step; -1: where densification ends
   // --space latent (Stage II)
   std::string autoencoder = "taef2";
   std::string encoder;
@@ -139,6 +141,7 @@ nlohmann::json to_json(const TrainOptions& o) {
           {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"resume", o.resume}, {"force", o.force},
           {"checkpoint_every", o.checkpoint_every},
           {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background},
+          {"coarse_factor", o.coarse_factor}, {"coarse_until", o.coarse_until},
           {"feature_dim", o.feature_dim},
           {"init_points", o.init_points.mode}, {"far_shell", o.init_points.shell.points},
           {"far_shell_radius", o.init_points.shell.radius_factor}};
@@ -181,6 +184,8 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
       o.scene_options.crop_to_multiple_of_8 = j.at("crop8").get<bool>();
       o.mip = j.at("mip").get<bool>();
       o.white_background = j.at("white_background").get<bool>();
+      o.coarse_factor = j.value("coarse_factor", 1);  // runs from before the option had none
+      o.coarse_until = j.value("coarse_until", int64_t{-1});
     }
   } catch (const nlohmann::json::exception& e) {
     lrf::fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
@@ -207,6 +212,10 @@ int run_train(const TrainOptions& o) {
   check_init_points_mode(points.mode);
   if (o.rgb_guide != 0 && o.space != "latent") fail("--rgb-guide applies to --space latent");
   if (o.inria_rates && o.space != "latent") fail("--inria-rates applies to --space latent");
+  if (o.coarse_factor < 1) fail("--coarse-factor must be at least 1");
+  if (o.coarse_until < -1) fail("--coarse-until must be a step (or -1: where densification ends)");
+  if ((o.coarse_factor != 1 || o.coarse_until != -1) && o.space != "rgb")
+    fail("--coarse-factor and --coarse-until apply to --space rgb");
   if (o.space == "latent-nerf") return run_train_nerf(o, points);
   if (o.nerf_option_set) fail("--rays, --samples and --hash-log2 apply to --space latent-nerf");
   if (o.space == "latent") return run_train_latent(o, points);
@@ -236,6 +245,8 @@ int run_train(const TrainOptions& o) {
   to.schedule = DensifySchedule::for_iterations(o.iters);
   to.densify.max_gaussians = o.max_gaussians;
   to.densify.grad_threshold = o.densify_grad;
+  to.coarse_factor = o.coarse_factor;
+  to.coarse_until = o.coarse_until < 0 ? to.schedule.until : o.coarse_until;
   const float bg = o.white_background ? 1.0f : 0.0f;
   to.background = torch::full({3}, bg);
   const double extent = scene.camera_extent();
@@ -252,6 +263,7 @@ int run_train(const TrainOptions& o) {
                         {"densify_every", to.schedule.interval},
                         {"opacity_reset_every", to.schedule.opacity_reset_every},
                         {"sh_degree_every", to.schedule.sh_degree_every}};
+  if (to.coarse_factor > 1) config["coarse_phase"] = {{"factor", to.coarse_factor}, {"until_step", to.coarse_until}};
   const std::string config_path = (std::filesystem::path(o.out) / "config.json").string();
   write_json_file(config_path, config);
 
@@ -349,6 +361,17 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_flag("--sparse-adam", o->sparse_adam, "Skip the Adam update of Gaussians no pixel reached this step (faster; Inria uses a dense Adam)");
   cmd->add_flag("--white-background", o->white_background, "Composite on white instead of black");
+  cmd->add_option("--coarse-factor", o->coarse_factor,
+                  "rgb: train the first steps (up to --coarse-until) on the views reduced by this factor in width "
+                  "and height (pixels area-averaged, intrinsics scaled), then on the full views. At 2 a coarse step "
+                  "costs about a quarter and the whole run takes less time for some loss of detail (README: fern, 7000 steps at 504x378, "
+                  "0.61x the time, test PSNR within 0.1 dB, SSIM 0.005-0.010 lower). The logged PSNR is on the "
+                  "reduced views until then. 1: off")
+      ->capture_default_str();
+  cmd->add_option("--coarse-until", o->coarse_until,
+                  "rgb: the last step of the coarse phase (-1: the step densification ends, half the run and at "
+                  "most 15000)")
+      ->capture_default_str();
   lrf::cli::on_run(cmd, [o, iters, checkpoint] {
     if (!o->resume) return run_train(*o);
     if (lrf::nerf::is_nerf_run(o->out)) return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0);

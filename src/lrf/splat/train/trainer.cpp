@@ -33,6 +33,15 @@ uint64_t mix(uint64_t seed, uint64_t stream, uint64_t index) {
 
 constexpr uint64_t kStreamViews = 1, kStreamSplit = 2;
 
+// The view seen at 1/factor of its size: each target pixel is the mean of the full-size pixels under it,
+// which is what the reduced camera's pixel (its intrinsics scaled by the same ratio) covers.
+TrainView reduced_view(const TrainView& v, int factor) {
+  const int w = std::max(1, v.camera.width / factor), h = std::max(1, v.camera.height / factor);
+  TrainView r{v.name, v.camera.resized(w, h), {}};
+  r.target = torch::adaptive_avg_pool2d(v.target.unsqueeze(0), {h, w}).squeeze(0).contiguous();
+  return r;
+}
+
 }  // namespace
 
 TrainingDiverged::TrainingDiverged(int64_t step, const std::string& what)
@@ -58,6 +67,17 @@ Trainer::Trainer(std::vector<TrainView> views, Gaussians init, double extent, Tr
   adam_.sparse = options_.sparse_adam;
   densifier_.resize(g_.size());
   update_filter();
+  if (options_.coarse_factor < 1) fail("trainer: the coarse phase's factor must be at least 1");
+  if (options_.coarse_factor > 1 && options_.coarse_until > 0) {
+    if (options_.objective) fail("trainer: a coarse phase needs photometric targets, not an objective");
+    for (const auto& v : views_) coarse_views_.push_back(reduced_view(v, options_.coarse_factor));
+  }
+}
+
+bool Trainer::coarse_at(int64_t step) const { return !coarse_views_.empty() && step <= options_.coarse_until; }
+
+const TrainView& Trainer::training_view(int view, int64_t step) const {
+  return (coarse_at(step) ? coarse_views_ : views_).at(static_cast<size_t>(view));
 }
 
 int Trainer::active_sh_degree() const {
@@ -105,7 +125,8 @@ StepResult Trainer::step() {
   StepResult r;
   const int64_t step = step_ + 1;  // 1-based, as the schedule is written
   const int view_index = view_for_step(step_);
-  const auto& view = views_[static_cast<size_t>(view_index)];
+  const auto& view = training_view(view_index, step);
+  const int scale = coarse_at(step) ? options_.coarse_factor : 1;
 
   auto t0 = Clock::now();
   const Camera camera = options_.camera_of_step ? options_.camera_of_step(view.camera, view_index, step) : view.camera;
@@ -135,7 +156,12 @@ StepResult Trainer::step() {
 
   t0 = Clock::now();
   const auto& sched = options_.schedule;
-  if (step < sched.until && out.means2d.grad().defined()) densifier_.accumulate(out.means2d.grad(), out.radii);
+  if (step < sched.until && out.means2d.grad().defined()) {
+    // Radii in full-size pixels, as the screen-size pruning judges them. The positional gradient is in
+    // NDC units and meets the same threshold at any resolution (the reduced views, with less fine
+    // detail, grow fewer Gaussians).
+    densifier_.accumulate(out.means2d.grad(), scale == 1 ? out.radii : out.radii * scale);
+  }
   r.timings.densify = ms_since(t0);
 
   t0 = Clock::now();
