@@ -364,9 +364,9 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("--coarse-factor", o->coarse_factor,
                   "rgb: train the first steps (up to --coarse-until) on the views reduced by this factor in width "
                   "and height (pixels area-averaged, intrinsics scaled), then on the full views. At 2 a coarse step "
-                  "costs about a quarter and the whole run takes less time for some loss of detail (README, 7000 steps: fern at 504x378 in "
-                  "0.61x the time with test PSNR within 0.1 dB; beer-can 0.5 dB lower). The logged PSNR is on the "
-                  "reduced views until then. 1: off")
+                  "costs about a quarter and the whole run takes less time for some loss of detail (README, 7000 "
+                  "steps: fern at 504x378 in 0.61x the time with test PSNR within 0.1 dB; beer-can 0.5 dB lower). "
+                  "The logged PSNR is on the reduced views until then. 1: off")
       ->capture_default_str();
   cmd->add_option("--coarse-until", o->coarse_until,
                   "rgb: the last step of the coarse phase (-1: the step densification ends, half the run and at "

@@ -158,8 +158,8 @@ StepResult Trainer::step() {
   const auto& sched = options_.schedule;
   if (step < sched.until && out.means2d.grad().defined()) {
     // Radii in full-size pixels, as the screen-size pruning judges them. The positional gradient is in
-    // NDC units and meets the same threshold at any resolution (the reduced views, with less fine
-    // detail, grow fewer Gaussians).
+    // NDC units and meets the same threshold at any resolution; what the reduced views show decides what
+    // grows (fern's field grew fewer Gaussians on them, beer-can's more).
     densifier_.accumulate(out.means2d.grad(), scale == 1 ? out.radii : out.radii * scale);
   }
   r.timings.densify = ms_since(t0);
