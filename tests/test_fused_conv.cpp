@@ -12,6 +12,7 @@
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/autoencoder/tiny_block.h"
 #include "lrf/autoencoder/tiny_fused.h"
+#include "lrf/autoencoder/winograd_conv.h"
 #include "lrf/core/cpu_features.h"
 #include "test_helpers.h"
 
@@ -117,6 +118,95 @@ TEST(UpsampledConv2d, EqualsAConvolutionOfTheUpsampledImage) {
   const at::Tensor want = reference_conv(at::upsample_nearest2d(x16.to(at::kFloat), {10, 14}), w, {}, 1, 1, {}, false);
   EXPECT_LT(max_abs(plain.forward(x16, false), want), 0.05);
   EXPECT_GT(want.abs().max().item<double>(), 2.0);
+}
+
+// Relative size of `got`'s error against `want`: root mean square, and largest over largest value.
+struct RelativeError {
+  double rms, max;
+};
+RelativeError relative_error(const at::Tensor& got, const at::Tensor& want) {
+  const at::Tensor e = got.to(at::kDouble) - want.to(at::kDouble);
+  return {(e.pow(2).mean().sqrt() / want.to(at::kDouble).pow(2).mean().sqrt()).item<double>(),
+          (e.abs().max() / want.abs().max()).item<double>()};
+}
+
+// Winograd in bf16 against float64 on the same bf16 inputs and the exact weights. What remains is the
+// output's rounding (2^-9 relative at most, ~0.1 % rms) and the rounding of the transformed inputs and
+// kernels (2^-9 relative each) in the 16 products, which the output transform adds with cancellation:
+// measured ~0.45 % rms over 64 channels, against ~0.17 % for oneDNN's direct bf16 convolution. 2^-7 rms
+// (0.78 %) and 2^-5 of the largest value bound that with margin; one wrong transform coefficient or a
+// misplaced tile gives errors the size of the values themselves.
+constexpr double kWinogradRms = 1.0 / 128, kWinogradMax = 1.0 / 32;
+
+TEST(WinogradConv3x3, MatchesAFloat64LoopWithinBf16Rounding) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
+  torch::manual_seed(11);
+  // 29 columns: 15 tiles, a full unit of 12 and a short one of 3 with a partial last tile; 9 rows: a
+  // partial last tile row.
+  const at::Tensor x16 = channels_last(torch::randn({2, 32, 9, 29}).to(at::kBFloat16));
+  const at::Tensor w = torch::randn({64, 32, 3, 3}) * 0.1;
+  const at::Tensor b = torch::randn({64});
+  const lrf::WinogradConv3x3 conv(w, b);
+  const at::Tensor y = conv.forward(x16, false);
+  ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, 64, 9, 29}));
+  EXPECT_EQ(y.scalar_type(), at::kBFloat16);
+  EXPECT_TRUE(y.is_contiguous(at::MemoryFormat::ChannelsLast));
+  const at::Tensor x = x16.to(at::kFloat);
+  RelativeError e = relative_error(y, reference_conv(x, w, b, 1, 1, {}, false));
+  EXPECT_LT(e.rms, kWinogradRms);
+  EXPECT_LT(e.max, kWinogradMax);
+  // The residual (read as bf16) is added before the ReLU, into the tensor handed in.
+  const at::Tensor r16 = channels_last(torch::randn({2, 64, 9, 29}).to(at::kBFloat16));
+  at::Tensor into = r16.clone(at::MemoryFormat::ChannelsLast);
+  const at::Tensor fused = conv.forward(x16, true, into);
+  EXPECT_TRUE(fused.is_same(into));
+  const at::Tensor want = reference_conv(x, w, b, 1, 1, r16.to(at::kFloat), true);
+  e = relative_error(fused, want);
+  EXPECT_LT(e.rms, kWinogradRms);
+  EXPECT_LT(e.max, kWinogradMax);
+  EXPECT_GT(want.eq(0).sum().item<int64_t>(), 0);  // the ReLU clipped something
+  // A single pixel: one tile whose 15 other taps are all padding.
+  const at::Tensor dot16 = channels_last(torch::randn({1, 32, 1, 1}).to(at::kBFloat16));
+  e = relative_error(conv.forward(dot16, false), reference_conv(dot16.to(at::kFloat), w, b, 1, 1, {}, false));
+  EXPECT_LT(e.rms, kWinogradRms);
+}
+
+TEST(WinogradConv3x3, FusedConv2dTakesItWhereTheCpuHasBf16AndOneDnnElsewhere) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
+  torch::manual_seed(12);
+  const at::Tensor x16 = channels_last(torch::randn({1, 64, 10, 14}).to(at::kBFloat16));
+  const at::Tensor w = torch::randn({64, 64, 3, 3}) * 0.1;
+  const at::Tensor b = torch::randn({64});
+  const lrf::FusedConv2d fused(w, b, 1, 1);
+  const lrf::WinogradConv3x3 winograd(w, b);
+  const at::Tensor by_winograd = winograd.forward(x16, true);
+  EXPECT_TRUE(torch::equal(fused.forward(x16, true), by_winograd));
+  // fp32 inputs stay on oneDNN's direct convolution.
+  const at::Tensor x = x16.to(at::kFloat);
+  EXPECT_LT(max_abs(fused.forward(x, true), reference_conv(x, w, b, 1, 1, {}, true)), 1e-4);
+  // A CPU without BF16: the direct bf16 convolution, whose result differs in its roundings.
+  lrf::test::ScopedEnv no_bf16("LRF_CPU_BF16", "0");
+  EXPECT_FALSE(lrf::WinogradConv3x3::available());
+  const at::Tensor direct = fused.forward(x16, true);
+  EXPECT_FALSE(torch::equal(direct, by_winograd));
+  const RelativeError e = relative_error(direct, reference_conv(x, w, b, 1, 1, {}, true));
+  EXPECT_LT(e.rms, kWinogradRms);
+  EXPECT_NE(lrf::test::error_of([&] { winograd.forward(x16, false); }).find("AVX512_BF16"), std::string::npos);
+}
+
+TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
+  EXPECT_TRUE(lrf::WinogradConv3x3::takes(64, 16));
+  EXPECT_FALSE(lrf::WinogradConv3x3::takes(48, 64));  // outputs are accumulated 64 at a time
+  EXPECT_FALSE(lrf::WinogradConv3x3::takes(64, 3));   // inputs are transformed 16 at a time
+  EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({64, 16, 5, 5}), {}); }).find("[O, I, 3, 3]"),
+            std::string::npos);
+  EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({3, 16, 3, 3}), {}); }).find("multiple of 64"),
+            std::string::npos);
+  const lrf::WinogradConv3x3 conv(torch::randn({64, 16, 3, 3}), {});
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 16, 4, 4}), false); }).find("bf16"), std::string::npos);
+  if (!lrf::WinogradConv3x3::available()) return;
+  const at::Tensor x16 = channels_last(torch::randn({1, 16, 4, 4}).to(at::kBFloat16));
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(x16, false, x16.clone()); }).find("residual"), std::string::npos);
 }
 
 TEST(FusedConv2d, RefusesBadShapes) {

@@ -26,6 +26,23 @@ inline std::string shared_dir() {
 
 inline std::string scene_dir(const std::string& name) { return shared_dir() + "/scenes/" + name; }
 
+// Sets an environment variable for one scope (child processes inherit it).
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const char* value) : name_(name) {
+    if (const char* old = std::getenv(name)) old_ = old, had_ = true;
+    ::setenv(name, value, 1);
+  }
+  ~ScopedEnv() { had_ ? ::setenv(name_, old_.c_str(), 1) : ::unsetenv(name_); }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::string old_;
+  bool had_ = false;
+};
+
 // A fresh, empty folder under the system temp dir, removed by the destructor.
 class TempDir {
  public:

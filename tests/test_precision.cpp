@@ -32,20 +32,7 @@ namespace {
 
 std::string taef2() { return lrf::test::shared_dir() + "/models/taef2"; }
 
-// Sets an environment variable for one scope (child processes inherit it).
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const char* value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = old, had_ = true;
-    ::setenv(name, value, 1);
-  }
-  ~ScopedEnv() { had_ ? ::setenv(name_, old_.c_str(), 1) : ::unsetenv(name_); }
-
- private:
-  const char* name_;
-  std::string old_;
-  bool had_ = false;
-};
+using lrf::test::ScopedEnv;
 
 // View `index` of llff-fern images_8, cropped to 504x376, as [1, 3, H, W].
 at::Tensor fern_view(int index) {

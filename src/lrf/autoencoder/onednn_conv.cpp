@@ -13,6 +13,7 @@
 #include <ATen/Parallel.h>
 #include <oneapi/dnnl/dnnl.hpp>
 
+#include "lrf/autoencoder/winograd_conv.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -46,6 +47,8 @@ struct FusedConv2d::Impl {
   int stride = 1, padding = 0;
   std::mutex mutex;
   std::map<Key, std::shared_ptr<const Prepared>> cache;
+  // The bf16 path of a 3x3 convolution (stride 1, padding 1) whose channel counts it takes.
+  std::unique_ptr<WinogradConv3x3> winograd;
 
   std::shared_ptr<const Prepared> prepared(bool bf16, int64_t n, int64_t h, int64_t w, bool relu, bool sum) {
     const Key key{bf16, n, h, w, relu, sum};
@@ -100,6 +103,10 @@ FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int s
   if (stride < 1 || padding < 0) fail("FusedConv2d: stride must be positive and padding non-negative");
   impl_->stride = stride;
   impl_->padding = padding;
+  if (impl_->kh == 3 && impl_->kw == 3 && stride == 1 && padding == 1 &&
+      WinogradConv3x3::takes(impl_->outputs, impl_->inputs) && WinogradConv3x3::available()) {
+    impl_->winograd = std::make_unique<WinogradConv3x3>(w, bias);
+  }
 }
 
 FusedConv2d::~FusedConv2d() = default;
@@ -114,6 +121,7 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
   if (input.size(2) + 2 * m.padding < m.kh || input.size(3) + 2 * m.padding < m.kw) {
     fail("FusedConv2d: input " + shape_of(input) + " is smaller than the kernel");
   }
+  if (dtype == at::kBFloat16 && m.winograd && WinogradConv3x3::available()) return m.winograd->forward(input, relu, residual);
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const bool sum = residual.defined();
   std::shared_ptr<const Impl::Prepared> p;

@@ -24,9 +24,15 @@ uint64_t xcr0() {
   return (static_cast<uint64_t>(hi) << 32) | lo;
 }
 
-bool detect() {
+struct Bf16Support {
+  bool avx512 = false;  // AVX512_BF16 with AVX-512 F/BW/VL/DQ, all saved by the OS
+  bool amx = false;     // AMX-BF16, saved by the OS
+};
+
+Bf16Support detect() {
+  Bf16Support found;
   uint32_t eax = 0, ebx = 0, ecx = 0, edx = 0;
-  if (!__get_cpuid_count(7, 0, &eax, &ebx, &ecx, &edx)) return false;
+  if (!__get_cpuid_count(7, 0, &eax, &ebx, &ecx, &edx)) return found;
   const uint32_t max_subleaf = eax;
   const uint64_t os = xcr0();
   // AVX-512 state: SSE, AVX, opmask, ZMM upper halves, ZMM16-31 (bits 1, 2, 5, 6, 7).
@@ -36,21 +42,24 @@ bool detect() {
   const bool os_amx = (os & 0x60000) == 0x60000;
   const bool avx512_core = (ebx & (1u << 16)) && (ebx & (1u << 17)) && (ebx & (1u << 30)) && (ebx & (1u << 31));
   const bool amx_bf16 = (edx & (1u << 22)) != 0;
-  if (amx_bf16 && os_amx && avx512_core && os_avx512) return true;
-  if (max_subleaf < 1 || !avx512_core || !os_avx512) return false;
-  if (!__get_cpuid_count(7, 1, &eax, &ebx, &ecx, &edx)) return false;
-  return (eax & (1u << 5)) != 0;  // AVX512_BF16
+  found.amx = amx_bf16 && os_amx && avx512_core && os_avx512;
+  if (max_subleaf < 1 || !avx512_core || !os_avx512) return found;
+  if (!__get_cpuid_count(7, 1, &eax, &ebx, &ecx, &edx)) return found;
+  found.avx512 = (eax & (1u << 5)) != 0;  // AVX512_BF16
+  return found;
 }
 #else
-bool detect() { return false; }
+Bf16Support detect() { return {}; }
 #endif
+
+const Bf16Support& support() {
+  static const Bf16Support found = detect();
+  return found;
+}
 
 }  // namespace
 
-bool cpu_reports_bf16() {
-  static const bool has = detect();
-  return has;
-}
+bool cpu_reports_bf16() { return support().avx512 || support().amx; }
 
 bool cpu_has_bf16() {
   if (const char* env = std::getenv("LRF_CPU_BF16"); env && *env) {
@@ -61,6 +70,8 @@ bool cpu_has_bf16() {
   }
   return cpu_reports_bf16();
 }
+
+bool cpu_has_avx512_bf16() { return cpu_has_bf16() && support().avx512; }
 
 bool cpu_has_avx2() {
 #if defined(__x86_64__) || defined(__i386__)

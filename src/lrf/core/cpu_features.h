@@ -12,6 +12,10 @@ bool cpu_has_bf16();
 // The same answer from the CPU alone, ignoring $LRF_CPU_BF16 (for logs).
 bool cpu_reports_bf16();
 
+// Whether the CPU has the AVX512_BF16 instructions themselves (the dot products of bf16 pairs that the
+// project's own bf16 kernels use), and cpu_has_bf16() is not overridden to false.
+bool cpu_has_avx512_bf16();
+
 // Whether the CPU runs AVX2 (8-lane float vectors), for the loops compiled for it beside the baseline
 // ones: the rasterizer's kernels and Adam's update. Asked once; every x86-64 CPU of the last decade has it.
 bool cpu_has_avx2();

@@ -1,0 +1,270 @@
+#include "lrf/autoencoder/winograd_conv.h"
+
+#include <algorithm>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+
+#include <ATen/ATen.h>
+#include <ATen/Parallel.h>
+#include <c10/util/BFloat16.h>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
+
+#include "lrf/core/cpu_features.h"
+#include "lrf/core/error.h"
+
+namespace lrf {
+namespace {
+
+constexpr int kTilesPerUnit = 12;  // 2x2 output tiles along a row transformed and multiplied together
+constexpr int kTilesPerPass = 6;   // tiles whose 64 outputs are accumulated in registers: 6 x 4 zmm
+
+uint16_t to_bf16(double v) { return c10::BFloat16(static_cast<float>(v)).x; }
+
+#if defined(__x86_64__)
+#define LRF_AVX512_BF16 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq,avx512bf16")))
+
+constexpr __mmask16 kAll = 0xFFFF;
+
+LRF_AVX512_BF16 inline __m512 load16(const uint16_t* p) {
+  const __m256i h = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  // The maskz forms: GCC 12's unmasked ones read an uninitialised register and warn about it.
+  return _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, _mm512_maskz_cvtepu16_epi32(kAll, h), 16));
+}
+
+LRF_AVX512_BF16 inline void store16(uint16_t* p, __m512 v) {
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), reinterpret_cast<__m256i>(_mm512_cvtneps_pbh(v)));
+}
+
+struct Geometry {
+  int64_t n, h, w, inputs, outputs, tiles_y, tiles_x, units_per_row;
+};
+
+// V = Bᵀ d B for the unit's tiles, 16 channels at a time: v[p][t][c], p = 4 * row + column. Neighbouring
+// tiles share two input columns, so each column's vertical transform (Bᵀ d) is done once.
+LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int64_t image, int64_t ty, int64_t tx0,
+                                      int tiles, uint16_t* v) {
+  const __m512 zero = _mm512_setzero_ps();
+  const int64_t x_first = 2 * tx0 - 1, y0 = 2 * ty - 1;
+  const int columns = 2 * tiles + 2;
+  bool row_inside[4];
+  for (int i = 0; i < 4; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.h;
+  const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.inputs;
+  __m512 r[2 * kTilesPerUnit + 2][4];  // [column][row of Bᵀ d]
+  for (int64_t c = 0; c < g.inputs; c += 16) {
+    for (int j = 0; j < columns; ++j) {
+      const int64_t x = x_first + j;
+      __m512 d[4];
+      for (int i = 0; i < 4; ++i) {
+        d[i] = (row_inside[i] && x >= 0 && x < g.w) ? load16(in + ((image * g.h + y0 + i) * g.w + x) * g.inputs + c)
+                                                     : zero;
+      }
+      r[j][0] = _mm512_sub_ps(d[0], d[2]);
+      r[j][1] = _mm512_add_ps(d[1], d[2]);
+      r[j][2] = _mm512_sub_ps(d[2], d[1]);
+      r[j][3] = _mm512_sub_ps(d[1], d[3]);
+    }
+    for (int t = 0; t < tiles; ++t) {
+      const __m512(*col)[4] = r + 2 * t;
+      uint16_t* out = v + t * g.inputs + c;
+      for (int i = 0; i < 4; ++i) {
+        store16(out + (4 * i + 0) * stride, _mm512_sub_ps(col[0][i], col[2][i]));
+        store16(out + (4 * i + 1) * stride, _mm512_add_ps(col[1][i], col[2][i]));
+        store16(out + (4 * i + 2) * stride, _mm512_sub_ps(col[2][i], col[1][i]));
+        store16(out + (4 * i + 3) * stride, _mm512_sub_ps(col[1][i], col[3][i]));
+      }
+    }
+  }
+}
+
+// m[t][o..o+64) = Σ_k v[t][k] u[k][o..o+64) for `Rows` tiles, one position; u in pairs of k.
+template <int Rows>
+LRF_AVX512_BF16 void multiply(const uint16_t* v, int64_t inputs, const uint16_t* u, int64_t outputs, float* m) {
+  for (int64_t o = 0; o < outputs; o += 64) {
+    __m512 acc[Rows][4];
+    for (int r = 0; r < Rows; ++r)
+      for (int q = 0; q < 4; ++q) acc[r][q] = _mm512_setzero_ps();
+    const uint16_t* w = u + 2 * o;
+    for (int64_t k = 0; k < inputs; k += 2, w += 2 * outputs) {
+      __m512bh b[4];
+      for (int q = 0; q < 4; ++q) b[q] = reinterpret_cast<__m512bh>(_mm512_loadu_si512(w + 32 * q));
+      for (int r = 0; r < Rows; ++r) {
+        int32_t pair;
+        std::memcpy(&pair, v + r * inputs + k, sizeof pair);
+        const __m512bh a = reinterpret_cast<__m512bh>(_mm512_set1_epi32(pair));
+        for (int q = 0; q < 4; ++q) acc[r][q] = _mm512_dpbf16_ps(acc[r][q], a, b[q]);
+      }
+    }
+    for (int r = 0; r < Rows; ++r)
+      for (int q = 0; q < 4; ++q) _mm512_storeu_ps(m + r * outputs + o + 16 * q, acc[r][q]);
+  }
+}
+
+LRF_AVX512_BF16 void multiply_rows(int rows, const uint16_t* v, int64_t inputs, const uint16_t* u, int64_t outputs,
+                                   float* m) {
+  switch (rows) {
+    case 1: return multiply<1>(v, inputs, u, outputs, m);
+    case 2: return multiply<2>(v, inputs, u, outputs, m);
+    case 3: return multiply<3>(v, inputs, u, outputs, m);
+    case 4: return multiply<4>(v, inputs, u, outputs, m);
+    case 5: return multiply<5>(v, inputs, u, outputs, m);
+    default: return multiply<6>(v, inputs, u, outputs, m);
+  }
+}
+
+// Y = Aᵀ M A per tile and 16 outputs, + bias (+ residual), ReLU, rounded to bf16 and stored.
+LRF_AVX512_BF16 void transform_outputs(const Geometry& g, const float* m, const float* bias, bool relu,
+                                       const uint16_t* residual, uint16_t* out, int64_t image, int64_t ty, int64_t tx0,
+                                       int tiles) {
+  const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.outputs;
+  const __m512 zero = _mm512_setzero_ps();
+  for (int t = 0; t < tiles; ++t) {
+    for (int64_t c = 0; c < g.outputs; c += 16) {
+      const float* src = m + t * g.outputs + c;
+      __m512 s[2][4];
+      for (int j = 0; j < 4; ++j) {
+        const __m512 m0 = _mm512_loadu_ps(src + (0 + j) * stride), m1 = _mm512_loadu_ps(src + (4 + j) * stride);
+        const __m512 m2 = _mm512_loadu_ps(src + (8 + j) * stride), m3 = _mm512_loadu_ps(src + (12 + j) * stride);
+        s[0][j] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
+        s[1][j] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
+      }
+      const __m512 b = _mm512_loadu_ps(bias + c);
+      for (int a = 0; a < 2; ++a) {
+        const int64_t y = 2 * ty + a;
+        if (y >= g.h) break;
+        const __m512 pair[2] = {_mm512_add_ps(_mm512_add_ps(s[a][0], s[a][1]), s[a][2]),
+                                _mm512_sub_ps(_mm512_sub_ps(s[a][1], s[a][2]), s[a][3])};
+        for (int e = 0; e < 2; ++e) {
+          const int64_t x = 2 * (tx0 + t) + e;
+          if (x >= g.w) break;
+          const int64_t at = ((image * g.h + y) * g.w + x) * g.outputs + c;
+          __m512 value = _mm512_add_ps(pair[e], b);
+          if (residual) value = _mm512_add_ps(value, load16(residual + at));
+          if (relu) value = _mm512_maskz_max_ps(kAll, value, zero);
+          store16(out + at, value);
+        }
+      }
+    }
+  }
+}
+
+LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* kernels, const float* bias, bool relu,
+                         const uint16_t* residual, uint16_t* out) {
+  const int64_t units = g.n * g.tiles_y * g.units_per_row;
+  at::parallel_for(0, units, 1, [&](int64_t begin, int64_t end) {
+    std::vector<uint16_t> v(static_cast<size_t>(16 * kTilesPerUnit * g.inputs));
+    std::vector<float> m(static_cast<size_t>(16 * kTilesPerUnit * g.outputs));
+    const int64_t position_stride = g.inputs / 2 * g.outputs * 2;
+    for (int64_t unit = begin; unit < end; ++unit) {
+      const int64_t image = unit / (g.tiles_y * g.units_per_row);
+      const int64_t ty = unit / g.units_per_row % g.tiles_y;
+      const int64_t tx0 = unit % g.units_per_row * kTilesPerUnit;
+      const int tiles = static_cast<int>(std::min<int64_t>(kTilesPerUnit, g.tiles_x - tx0));
+      transform_inputs(g, in, image, ty, tx0, tiles, v.data());
+      for (int p = 0; p < 16; ++p) {
+        const uint16_t* vp = v.data() + p * kTilesPerUnit * g.inputs;
+        float* mp = m.data() + p * kTilesPerUnit * g.outputs;
+        for (int t = 0; t < tiles; t += kTilesPerPass) {
+          multiply_rows(std::min(kTilesPerPass, tiles - t), vp + t * g.inputs, g.inputs, kernels + p * position_stride,
+                        g.outputs, mp + t * g.outputs);
+        }
+      }
+      transform_outputs(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
+    }
+  });
+}
+#endif
+
+std::string shape_of(const at::Tensor& t) { return c10::str(t.sizes()); }
+
+}  // namespace
+
+bool WinogradConv3x3::takes(int64_t outputs, int64_t inputs) {
+  return outputs > 0 && inputs > 0 && outputs % 64 == 0 && inputs % 16 == 0;
+}
+
+bool WinogradConv3x3::available() {
+  static const bool enabled = [] {
+    const char* v = std::getenv("LRF_WINOGRAD");
+    return !(v && std::strcmp(v, "0") == 0);
+  }();
+#if defined(__x86_64__)
+  return enabled && cpu_has_avx512_bf16();
+#else
+  return false;
+#endif
+}
+
+WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias) {
+  if (weight.dim() != 4 || weight.size(2) != 3 || weight.size(3) != 3) {
+    fail("WinogradConv3x3: weight must be [O, I, 3, 3], got " + shape_of(weight));
+  }
+  outputs_ = weight.size(0), inputs_ = weight.size(1);
+  if (!takes(outputs_, inputs_)) {
+    fail("WinogradConv3x3: needs a multiple of 64 outputs and of 16 inputs, got " + shape_of(weight));
+  }
+  // U = G g Gᵀ in float64, rounded once to bf16.
+  const at::Tensor w = weight.detach().to(at::kDouble).contiguous();
+  const double* g = w.data_ptr<double>();
+  constexpr double G[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
+  kernels_.assign(static_cast<size_t>(16 * inputs_ * outputs_), 0);
+  for (int64_t o = 0; o < outputs_; ++o)
+    for (int64_t i = 0; i < inputs_; ++i) {
+      const double* k = g + (o * inputs_ + i) * 9;
+      double gk[4][3];  // G g
+      for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 3; ++c) gk[r][c] = G[r][0] * k[c] + G[r][1] * k[3 + c] + G[r][2] * k[6 + c];
+      for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) {
+          const double u = gk[r][0] * G[c][0] + gk[r][1] * G[c][1] + gk[r][2] * G[c][2];
+          const int64_t p = 4 * r + c;
+          kernels_[static_cast<size_t>(((p * (inputs_ / 2) + i / 2) * outputs_ + o) * 2 + i % 2)] = to_bf16(u);
+        }
+    }
+  bias_.assign(static_cast<size_t>(outputs_), 0.f);
+  if (bias.defined()) {
+    if (bias.dim() != 1 || bias.size(0) != outputs_) fail("WinogradConv3x3: bias must be [O], got " + shape_of(bias));
+    const at::Tensor b = bias.detach().to(at::kFloat).contiguous();
+    std::copy(b.data_ptr<float>(), b.data_ptr<float>() + outputs_, bias_.begin());
+  }
+}
+
+at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at::Tensor& residual) const {
+  if (input.dim() != 4 || input.size(1) != inputs_ || input.scalar_type() != at::kBFloat16) {
+    fail("WinogradConv3x3: input must be bf16 [N, " + std::to_string(inputs_) + ", H, W], got " + shape_of(input));
+  }
+  if (!available()) fail("WinogradConv3x3: this CPU has no AVX512_BF16");
+  const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
+  const int64_t n = x.size(0), h = x.size(2), w = x.size(3);
+  at::Tensor out;
+  if (residual.defined()) {
+    const std::vector<int64_t> want{n, outputs_, h, w};
+    if (residual.sizes() != at::IntArrayRef(want) || residual.scalar_type() != at::kBFloat16 ||
+        !residual.is_contiguous(at::MemoryFormat::ChannelsLast)) {
+      fail("WinogradConv3x3: the residual must be a channels-last bf16 tensor of " + c10::str(at::IntArrayRef(want)) +
+           ", got " + shape_of(residual));
+    }
+    const auto* in_begin = static_cast<const char*>(x.data_ptr());
+    const auto* res_begin = static_cast<const char*>(residual.data_ptr());
+    if (res_begin < in_begin + x.nbytes() && in_begin < res_begin + residual.nbytes()) {
+      fail("WinogradConv3x3: the residual shares memory with the input");
+    }
+    out = residual;
+  } else {
+    out = at::empty({n, outputs_, h, w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));
+  }
+  if (x.numel() == 0) return out;
+#if defined(__x86_64__)
+  Geometry g{n, h, w, inputs_, outputs_, (h + 1) / 2, (w + 1) / 2, 0};
+  g.units_per_row = (g.tiles_x + kTilesPerUnit - 1) / kTilesPerUnit;
+  const auto* in = reinterpret_cast<const uint16_t*>(x.data_ptr());
+  auto* dst = reinterpret_cast<uint16_t*>(out.data_ptr());
+  run(g, in, kernels_.data(), bias_.data(), relu, residual.defined() ? dst : nullptr, dst);
+#endif
+  return out;
+}
+
+}  // namespace lrf

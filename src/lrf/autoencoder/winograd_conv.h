@@ -1,0 +1,40 @@
+#pragma once
+// A 3x3 convolution (stride 1, zero padding 1) of bf16 channels-last images by Winograd's F(2x2, 3x3):
+// each 2x2 block of outputs is 16 products of transformed 4x4 input patches with transformed kernels,
+// where the direct convolution needs 36, so 4/9 of the multiply-adds. The transforms are sums and
+// differences done in float32 on 16 channels at a time; the products are AVX512_BF16 dot products of
+// bf16 pairs accumulated in float32, as oneDNN's bf16 direct convolution does. Input transform, the 16
+// matrix products and output transform run on a dozen tiles at a time, so that everything in between
+// stays in the core's caches.
+// Accuracy: the transformed inputs and kernels are rounded to bf16 instead of the inputs and kernels
+// themselves; the output transform adds up to 9 such products per output, so the error is a small
+// multiple of the direct bf16 convolution's (test_winograd_conv measures both against float64).
+#include <cstdint>
+#include <vector>
+
+#include <ATen/core/Tensor.h>
+
+namespace lrf {
+
+class WinogradConv3x3 {
+ public:
+  // Channel counts the kernel handles: inputs a multiple of 16, outputs a multiple of 64.
+  static bool takes(int64_t outputs, int64_t inputs);
+  // Whether this CPU runs it (AVX512_BF16 with the OS saving AVX-512 state), and LRF_WINOGRAD is not 0.
+  static bool available();
+
+  // weight [O, I, 3, 3], bias [O] or undefined (any dtype and layout; copied).
+  WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias);
+
+  // input [N, I, H, W] bf16 -> [N, O, H, W] bf16 channels-last: conv + bias, then + `residual` when
+  // defined, then the ReLU when `relu`. A defined residual must be channels-last bf16 of the output's
+  // shape, must not overlap the input, and receives the result (it is returned). Needs available().
+  at::Tensor forward(const at::Tensor& input, bool relu, const at::Tensor& residual = {}) const;
+
+ private:
+  int64_t outputs_ = 0, inputs_ = 0;
+  std::vector<uint16_t> kernels_;  // bf16 [16 positions][I / 2][O][2]: transformed, pairs of inputs
+  std::vector<float> bias_;        // [O], zeros for a layer without bias
+};
+
+}  // namespace lrf
