@@ -195,17 +195,17 @@ TEST(WinogradConv3x3, FusedConv2dTakesItWhereTheCpuHasBf16AndOneDnnElsewhere) {
 }
 
 TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
-  EXPECT_TRUE(lrf::WinogradConv3x3::takes(64, 16));
+  EXPECT_TRUE(lrf::WinogradConv3x3::takes(64, 32));
   EXPECT_FALSE(lrf::WinogradConv3x3::takes(48, 64));  // outputs are accumulated 64 at a time
-  EXPECT_FALSE(lrf::WinogradConv3x3::takes(64, 3));   // inputs are transformed 16 at a time
-  EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({64, 16, 5, 5}), {}); }).find("[O, I, 3, 3]"),
+  EXPECT_FALSE(lrf::WinogradConv3x3::takes(64, 16));  // inputs are transformed 32 at a time
+  EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({64, 32, 5, 5}), {}); }).find("[O, I, 3, 3]"),
             std::string::npos);
-  EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({3, 16, 3, 3}), {}); }).find("multiple of 64"),
+  EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({3, 32, 3, 3}), {}); }).find("multiple of 64"),
             std::string::npos);
-  const lrf::WinogradConv3x3 conv(torch::randn({64, 16, 3, 3}), {});
-  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 16, 4, 4}), false); }).find("bf16"), std::string::npos);
+  const lrf::WinogradConv3x3 conv(torch::randn({64, 32, 3, 3}), {});
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 32, 4, 4}), false); }).find("bf16"), std::string::npos);
   if (!lrf::WinogradConv3x3::available()) return;
-  const at::Tensor x16 = channels_last(torch::randn({1, 16, 4, 4}).to(at::kBFloat16));
+  const at::Tensor x16 = channels_last(torch::randn({1, 32, 4, 4}).to(at::kBFloat16));
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(x16, false, x16.clone()); }).find("residual"), std::string::npos);
 }
 

@@ -35,16 +35,26 @@ LRF_AVX512_BF16 inline __m512 load16(const uint16_t* p) {
   return _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, _mm512_maskz_cvtepu16_epi32(kAll, h), 16));
 }
 
-LRF_AVX512_BF16 inline void store16(uint16_t* p, __m512 v) {
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), reinterpret_cast<__m256i>(_mm512_cvtneps_pbh(v)));
+// 32 channels c..c+31 as float32: [0] the even ones, [1] the odd ones (two instructions, no shuffles).
+LRF_AVX512_BF16 inline void load32_split(const uint16_t* p, __m512 out[2]) {
+  const __m512i v = _mm512_loadu_si512(p);
+  out[0] = _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, v, 16));
+  out[1] = _mm512_castsi512_ps(_mm512_maskz_and_epi32(kAll, v, _mm512_set1_epi32(static_cast<int>(0xFFFF0000u))));
+}
+
+// Rounds 2 x 16 floats to bf16 and stores them, `low` first.
+LRF_AVX512_BF16 inline void store32(uint16_t* p, __m512 low, __m512 high) {
+  _mm512_storeu_si512(p, reinterpret_cast<__m512i>(_mm512_cvtne2ps_pbh(high, low)));
 }
 
 struct Geometry {
   int64_t n, h, w, inputs, outputs, tiles_y, tiles_x, units_per_row;
 };
 
-// V = Bᵀ d B for the unit's tiles, 16 channels at a time: v[p][t][c], p = 4 * row + column. Neighbouring
-// tiles share two input columns, so each column's vertical transform (Bᵀ d) is done once.
+// V = Bᵀ d B for the unit's tiles: v[p][t][k], p = 4 * row + column. 32 input channels are loaded at a
+// time as their even and odd halves, and stored so: k runs over the evens of each 32 then the odds
+// (the transformed kernels follow the same order). Neighbouring tiles share two input columns, so each
+// column's vertical transform (Bᵀ d) is done once.
 LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int64_t image, int64_t ty, int64_t tx0,
                                       int tiles, uint16_t* v) {
   const __m512 zero = _mm512_setzero_ps();
@@ -53,28 +63,37 @@ LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int
   bool row_inside[4];
   for (int i = 0; i < 4; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.h;
   const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.inputs;
-  __m512 r[2 * kTilesPerUnit + 2][4];  // [column][row of Bᵀ d]
-  for (int64_t c = 0; c < g.inputs; c += 16) {
+  __m512 r[2 * kTilesPerUnit + 2][4][2];  // [column][row of Bᵀ d][even, odd channels]
+  for (int64_t c = 0; c < g.inputs; c += 32) {
     for (int j = 0; j < columns; ++j) {
       const int64_t x = x_first + j;
-      __m512 d[4];
+      __m512 d[4][2];
       for (int i = 0; i < 4; ++i) {
-        d[i] = (row_inside[i] && x >= 0 && x < g.w) ? load16(in + ((image * g.h + y0 + i) * g.w + x) * g.inputs + c)
-                                                     : zero;
+        if (row_inside[i] && x >= 0 && x < g.w) {
+          load32_split(in + ((image * g.h + y0 + i) * g.w + x) * g.inputs + c, d[i]);
+        } else {
+          d[i][0] = d[i][1] = zero;
+        }
       }
-      r[j][0] = _mm512_sub_ps(d[0], d[2]);
-      r[j][1] = _mm512_add_ps(d[1], d[2]);
-      r[j][2] = _mm512_sub_ps(d[2], d[1]);
-      r[j][3] = _mm512_sub_ps(d[1], d[3]);
+      for (int e = 0; e < 2; ++e) {
+        r[j][0][e] = _mm512_sub_ps(d[0][e], d[2][e]);
+        r[j][1][e] = _mm512_add_ps(d[1][e], d[2][e]);
+        r[j][2][e] = _mm512_sub_ps(d[2][e], d[1][e]);
+        r[j][3][e] = _mm512_sub_ps(d[1][e], d[3][e]);
+      }
     }
     for (int t = 0; t < tiles; ++t) {
-      const __m512(*col)[4] = r + 2 * t;
+      const __m512(*col)[4][2] = r + 2 * t;
       uint16_t* out = v + t * g.inputs + c;
       for (int i = 0; i < 4; ++i) {
-        store16(out + (4 * i + 0) * stride, _mm512_sub_ps(col[0][i], col[2][i]));
-        store16(out + (4 * i + 1) * stride, _mm512_add_ps(col[1][i], col[2][i]));
-        store16(out + (4 * i + 2) * stride, _mm512_sub_ps(col[2][i], col[1][i]));
-        store16(out + (4 * i + 3) * stride, _mm512_sub_ps(col[1][i], col[3][i]));
+        __m512 q[4][2];
+        for (int e = 0; e < 2; ++e) {
+          q[0][e] = _mm512_sub_ps(col[0][i][e], col[2][i][e]);
+          q[1][e] = _mm512_add_ps(col[1][i][e], col[2][i][e]);
+          q[2][e] = _mm512_sub_ps(col[2][i][e], col[1][i][e]);
+          q[3][e] = _mm512_sub_ps(col[1][i][e], col[3][i][e]);
+        }
+        for (int jj = 0; jj < 4; ++jj) store32(out + (4 * i + jj) * stride, q[jj][0], q[jj][1]);
       }
     }
   }
@@ -115,36 +134,44 @@ LRF_AVX512_BF16 void multiply_rows(int rows, const uint16_t* v, int64_t inputs, 
   }
 }
 
-// Y = Aᵀ M A per tile and 16 outputs, + bias (+ residual), ReLU, rounded to bf16 and stored.
+// Y = Aᵀ M A per tile and 32 outputs, + bias (+ residual), ReLU, rounded to bf16 and stored.
 LRF_AVX512_BF16 void transform_outputs(const Geometry& g, const float* m, const float* bias, bool relu,
                                        const uint16_t* residual, uint16_t* out, int64_t image, int64_t ty, int64_t tx0,
                                        int tiles) {
   const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.outputs;
   const __m512 zero = _mm512_setzero_ps();
   for (int t = 0; t < tiles; ++t) {
-    for (int64_t c = 0; c < g.outputs; c += 16) {
-      const float* src = m + t * g.outputs + c;
-      __m512 s[2][4];
-      for (int j = 0; j < 4; ++j) {
-        const __m512 m0 = _mm512_loadu_ps(src + (0 + j) * stride), m1 = _mm512_loadu_ps(src + (4 + j) * stride);
-        const __m512 m2 = _mm512_loadu_ps(src + (8 + j) * stride), m3 = _mm512_loadu_ps(src + (12 + j) * stride);
-        s[0][j] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
-        s[1][j] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
+    for (int64_t c = 0; c < g.outputs; c += 32) {
+      __m512 y[2][2][2];  // [row][column][16 outputs]
+      for (int h = 0; h < 2; ++h) {
+        const float* src = m + t * g.outputs + c + 16 * h;
+        __m512 s[2][4];
+        for (int j = 0; j < 4; ++j) {
+          const __m512 m0 = _mm512_loadu_ps(src + (0 + j) * stride), m1 = _mm512_loadu_ps(src + (4 + j) * stride);
+          const __m512 m2 = _mm512_loadu_ps(src + (8 + j) * stride), m3 = _mm512_loadu_ps(src + (12 + j) * stride);
+          s[0][j] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
+          s[1][j] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
+        }
+        const __m512 b = _mm512_loadu_ps(bias + c + 16 * h);
+        for (int a = 0; a < 2; ++a) {
+          y[a][0][h] = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(s[a][0], s[a][1]), s[a][2]), b);
+          y[a][1][h] = _mm512_add_ps(_mm512_sub_ps(_mm512_sub_ps(s[a][1], s[a][2]), s[a][3]), b);
+        }
       }
-      const __m512 b = _mm512_loadu_ps(bias + c);
       for (int a = 0; a < 2; ++a) {
-        const int64_t y = 2 * ty + a;
-        if (y >= g.h) break;
-        const __m512 pair[2] = {_mm512_add_ps(_mm512_add_ps(s[a][0], s[a][1]), s[a][2]),
-                                _mm512_sub_ps(_mm512_sub_ps(s[a][1], s[a][2]), s[a][3])};
+        const int64_t row = 2 * ty + a;
+        if (row >= g.h) break;
         for (int e = 0; e < 2; ++e) {
           const int64_t x = 2 * (tx0 + t) + e;
           if (x >= g.w) break;
-          const int64_t at = ((image * g.h + y) * g.w + x) * g.outputs + c;
-          __m512 value = _mm512_add_ps(pair[e], b);
-          if (residual) value = _mm512_add_ps(value, load16(residual + at));
-          if (relu) value = _mm512_maskz_max_ps(kAll, value, zero);
-          store16(out + at, value);
+          const int64_t at = ((image * g.h + row) * g.w + x) * g.outputs + c;
+          __m512 low = y[a][e][0], high = y[a][e][1];
+          if (residual) {
+            low = _mm512_add_ps(low, load16(residual + at));
+            high = _mm512_add_ps(high, load16(residual + at + 16));
+          }
+          if (relu) low = _mm512_maskz_max_ps(kAll, low, zero), high = _mm512_maskz_max_ps(kAll, high, zero);
+          store32(out + at, low, high);
         }
       }
     }
@@ -183,7 +210,7 @@ std::string shape_of(const at::Tensor& t) { return c10::str(t.sizes()); }
 }  // namespace
 
 bool WinogradConv3x3::takes(int64_t outputs, int64_t inputs) {
-  return outputs > 0 && inputs > 0 && outputs % 64 == 0 && inputs % 16 == 0;
+  return outputs > 0 && inputs > 0 && outputs % 64 == 0 && inputs % 32 == 0;
 }
 
 bool WinogradConv3x3::available() {
@@ -204,7 +231,7 @@ WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bia
   }
   outputs_ = weight.size(0), inputs_ = weight.size(1);
   if (!takes(outputs_, inputs_)) {
-    fail("WinogradConv3x3: needs a multiple of 64 outputs and of 16 inputs, got " + shape_of(weight));
+    fail("WinogradConv3x3: needs a multiple of 64 outputs and of 32 inputs, got " + shape_of(weight));
   }
   // U = G g Gᵀ in float64, rounded once to bf16.
   const at::Tensor w = weight.detach().to(at::kDouble).contiguous();
@@ -221,7 +248,9 @@ WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bia
         for (int c = 0; c < 4; ++c) {
           const double u = gk[r][0] * G[c][0] + gk[r][1] * G[c][1] + gk[r][2] * G[c][2];
           const int64_t p = 4 * r + c;
-          kernels_[static_cast<size_t>(((p * (inputs_ / 2) + i / 2) * outputs_ + o) * 2 + i % 2)] = to_bf16(u);
+          // Input i's place in the transformed inputs' order: the evens of its 32, then the odds.
+          const int64_t in32 = i % 32, k = i - in32 + (in32 % 2 == 0 ? in32 / 2 : 16 + in32 / 2);
+          kernels_[static_cast<size_t>(((p * (inputs_ / 2) + k / 2) * outputs_ + o) * 2 + k % 2)] = to_bf16(u);
         }
     }
   bias_.assign(static_cast<size_t>(outputs_), 0.f);

@@ -2,7 +2,7 @@
 // A 3x3 convolution (stride 1, zero padding 1) of bf16 channels-last images by Winograd's F(2x2, 3x3):
 // each 2x2 block of outputs is 16 products of transformed 4x4 input patches with transformed kernels,
 // where the direct convolution needs 36, so 4/9 of the multiply-adds. The transforms are sums and
-// differences done in float32 on 16 channels at a time; the products are AVX512_BF16 dot products of
+// differences done in float32 on 32 channels at a time; the products are AVX512_BF16 dot products of
 // bf16 pairs accumulated in float32, as oneDNN's bf16 direct convolution does. Input transform, the 16
 // matrix products and output transform run on a dozen tiles at a time, so that everything in between
 // stays in the core's caches.
@@ -18,7 +18,7 @@ namespace lrf {
 
 class WinogradConv3x3 {
  public:
-  // Channel counts the kernel handles: inputs a multiple of 16, outputs a multiple of 64.
+  // Channel counts the kernel handles: inputs a multiple of 32, outputs a multiple of 64.
   static bool takes(int64_t outputs, int64_t inputs);
   // Whether this CPU runs it (AVX512_BF16 with the OS saving AVX-512 state), and LRF_WINOGRAD is not 0.
   static bool available();
@@ -33,7 +33,8 @@ class WinogradConv3x3 {
 
  private:
   int64_t outputs_ = 0, inputs_ = 0;
-  std::vector<uint16_t> kernels_;  // bf16 [16 positions][I / 2][O][2]: transformed, pairs of inputs
+  // bf16 [16 positions][I / 2][O][2]: transformed, in pairs of inputs, each 32 inputs ordered evens first
+  std::vector<uint16_t> kernels_;
   std::vector<float> bias_;        // [O], zeros for a layer without bias
 };
 
