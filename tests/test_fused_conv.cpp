@@ -194,6 +194,28 @@ TEST(WinogradConv3x3, FusedConv2dTakesItWhereTheCpuHasBf16AndOneDnnElsewhere) {
   EXPECT_NE(lrf::test::error_of([&] { winograd.forward(x16, false); }).find("AVX512_BF16"), std::string::npos);
 }
 
+TEST(WinogradConv3x3, OfAnUpsampledInputMatchesAFloat64Loop) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
+  torch::manual_seed(13);
+  // 15 columns: a unit of 12 tiles and one of 3; 5 rows; the output is 10x30.
+  const at::Tensor x16 = channels_last(torch::randn({2, 32, 5, 15}).to(at::kBFloat16));
+  const at::Tensor w = torch::randn({64, 32, 3, 3}) * 0.1;
+  const at::Tensor b = torch::randn({64});
+  const lrf::WinogradConv3x3 conv(w, b, true);
+  const at::Tensor y = conv.forward(x16, true);
+  ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, 64, 10, 30}));
+  EXPECT_TRUE(y.is_contiguous(at::MemoryFormat::ChannelsLast));
+  const at::Tensor up = at::upsample_nearest2d(x16.to(at::kFloat), {10, 30});
+  const at::Tensor want = reference_conv(up, w, b, 1, 1, {}, true);
+  // The tolerances of the plain case: the same roundings, of fewer products.
+  const RelativeError e = relative_error(y, want);
+  EXPECT_LT(e.rms, kWinogradRms);
+  EXPECT_LT(e.max, kWinogradMax);
+  EXPECT_GT(want.eq(0).sum().item<int64_t>(), 0);
+  // UpsampledConv2d takes this path in bf16.
+  EXPECT_TRUE(torch::equal(lrf::UpsampledConv2d(w, b).forward(x16, true), y));
+}
+
 TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
   EXPECT_TRUE(lrf::WinogradConv3x3::takes(64, 32));
   EXPECT_FALSE(lrf::WinogradConv3x3::takes(48, 64));  // outputs are accumulated 64 at a time

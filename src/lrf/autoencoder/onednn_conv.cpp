@@ -198,11 +198,17 @@ UpsampledConv2d::UpsampledConv2d(const at::Tensor& weight, const at::Tensor& bia
   outputs_ = weight.size(0);
   const at::Tensor b = bias.defined() ? bias.detach().to(at::kFloat).repeat({4}) : at::Tensor();
   phases_ = std::make_unique<FusedConv2d>(phase_weights(weight), b, 1, 1);
+  if (WinogradConv3x3::takes(weight.size(0), weight.size(1)) && WinogradConv3x3::available()) {
+    winograd_ = std::make_unique<WinogradConv3x3>(weight, bias, true);
+  }
 }
 
 UpsampledConv2d::~UpsampledConv2d() = default;
 
 at::Tensor UpsampledConv2d::forward(const at::Tensor& input, bool relu) const {
+  if (input.scalar_type() == at::kBFloat16 && winograd_ && WinogradConv3x3::available()) {
+    return winograd_->forward(input, relu);
+  }
   const at::Tensor g = phases_->forward(input, relu);  // [N, 4·O, H + 1, W + 1]
   const int64_t n = g.size(0), h = g.size(2) - 1, w = g.size(3) - 1, o = outputs_;
   at::Tensor out = at::empty({n, o, 2 * h, 2 * w}, g.options().memory_format(at::MemoryFormat::ChannelsLast));

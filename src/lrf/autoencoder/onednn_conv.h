@@ -10,6 +10,8 @@
 
 namespace lrf {
 
+class WinogradConv3x3;
+
 class FusedConv2d {
  public:
   // weight [O, I, kh, kw] (float32, any memory layout; copied), bias [O] or undefined; zero padding
@@ -54,6 +56,9 @@ class UpsampledConv2d {
  private:
   int64_t outputs_ = 0;
   std::unique_ptr<FusedConv2d> phases_;  // the 2x2 convolution with 4·O outputs
+  // bf16 where the CPU has AVX512_BF16 and the channel counts fit: Winograd on the upsampled image,
+  // 9/16 of the phases' multiply-adds and no interleaving pass.
+  std::unique_ptr<WinogradConv3x3> winograd_;
 };
 
 // Whether the autoencoders' inference may use FusedConv2d: yes unless LRF_FUSED_CONV=0 (kept to compare

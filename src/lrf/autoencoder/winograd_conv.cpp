@@ -48,52 +48,74 @@ LRF_AVX512_BF16 inline void store32(uint16_t* p, __m512 low, __m512 high) {
 }
 
 struct Geometry {
-  int64_t n, h, w, inputs, outputs, tiles_y, tiles_x, units_per_row;
+  int64_t n, in_h, in_w, out_h, out_w, inputs, outputs;
+  bool upsampled;  // the input is upsampled 2x (nearest) before the convolution
+  int positions;   // products per tile: 16, or 9 when upsampled
+  int64_t tiles_y, tiles_x, units_per_row;
 };
 
 // V = Bᵀ d B for the unit's tiles: v[p][t][k], p = 4 * row + column. 32 input channels are loaded at a
 // time as their even and odd halves, and stored so: k runs over the evens of each 32 then the odds
-// (the transformed kernels follow the same order). Neighbouring tiles share two input columns, so each
+// (the transformed kernels follow the same order). Neighbouring tiles share input columns, so each
 // column's vertical transform (Bᵀ d) is done once.
+// On a 2x upsampled input the tile at input pixel (ty, tx) is output rows 2ty, 2ty + 1 (and columns
+// likewise), whose 4x4 patch repeats the middle input row: d = (x[ty - 1], x[ty], x[ty], x[ty + 1]). Then
+// Bᵀ d = (x[ty - 1] - x[ty], 2 x[ty], 0, x[ty] - x[ty + 1]): row 2 of V and column 2 vanish, leaving 9
+// products instead of 16 (p = 3 * row + column over rows and columns 0, 1, 3), and the factors 2 go
+// into the transformed kernels.
+template <bool Upsampled>
 LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int64_t image, int64_t ty, int64_t tx0,
                                       int tiles, uint16_t* v) {
+  constexpr int kRows = Upsampled ? 3 : 4;
   const __m512 zero = _mm512_setzero_ps();
-  const int64_t x_first = 2 * tx0 - 1, y0 = 2 * ty - 1;
-  const int columns = 2 * tiles + 2;
-  bool row_inside[4];
-  for (int i = 0; i < 4; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.h;
+  const int64_t x_first = Upsampled ? tx0 - 1 : 2 * tx0 - 1, y0 = Upsampled ? ty - 1 : 2 * ty - 1;
+  const int columns = Upsampled ? tiles + 2 : 2 * tiles + 2;
+  bool row_inside[kRows];
+  for (int i = 0; i < kRows; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.in_h;
   const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.inputs;
   __m512 r[2 * kTilesPerUnit + 2][4][2];  // [column][row of Bᵀ d][even, odd channels]
   for (int64_t c = 0; c < g.inputs; c += 32) {
     for (int j = 0; j < columns; ++j) {
       const int64_t x = x_first + j;
-      __m512 d[4][2];
-      for (int i = 0; i < 4; ++i) {
-        if (row_inside[i] && x >= 0 && x < g.w) {
-          load32_split(in + ((image * g.h + y0 + i) * g.w + x) * g.inputs + c, d[i]);
+      __m512 d[kRows][2];
+      for (int i = 0; i < kRows; ++i) {
+        if (row_inside[i] && x >= 0 && x < g.in_w) {
+          load32_split(in + ((image * g.in_h + y0 + i) * g.in_w + x) * g.inputs + c, d[i]);
         } else {
           d[i][0] = d[i][1] = zero;
         }
       }
       for (int e = 0; e < 2; ++e) {
-        r[j][0][e] = _mm512_sub_ps(d[0][e], d[2][e]);
-        r[j][1][e] = _mm512_add_ps(d[1][e], d[2][e]);
-        r[j][2][e] = _mm512_sub_ps(d[2][e], d[1][e]);
-        r[j][3][e] = _mm512_sub_ps(d[1][e], d[3][e]);
+        if constexpr (Upsampled) {
+          r[j][0][e] = _mm512_sub_ps(d[0][e], d[1][e]);
+          r[j][1][e] = d[1][e];
+          r[j][2][e] = _mm512_sub_ps(d[1][e], d[2][e]);
+        } else {
+          r[j][0][e] = _mm512_sub_ps(d[0][e], d[2][e]);
+          r[j][1][e] = _mm512_add_ps(d[1][e], d[2][e]);
+          r[j][2][e] = _mm512_sub_ps(d[2][e], d[1][e]);
+          r[j][3][e] = _mm512_sub_ps(d[1][e], d[3][e]);
+        }
       }
     }
     for (int t = 0; t < tiles; ++t) {
-      const __m512(*col)[4][2] = r + 2 * t;
+      const __m512(*col)[4][2] = r + (Upsampled ? t : 2 * t);
       uint16_t* out = v + t * g.inputs + c;
-      for (int i = 0; i < 4; ++i) {
+      for (int i = 0; i < kRows; ++i) {
         __m512 q[4][2];
         for (int e = 0; e < 2; ++e) {
-          q[0][e] = _mm512_sub_ps(col[0][i][e], col[2][i][e]);
-          q[1][e] = _mm512_add_ps(col[1][i][e], col[2][i][e]);
-          q[2][e] = _mm512_sub_ps(col[2][i][e], col[1][i][e]);
-          q[3][e] = _mm512_sub_ps(col[1][i][e], col[3][i][e]);
+          if constexpr (Upsampled) {
+            q[0][e] = _mm512_sub_ps(col[0][i][e], col[1][i][e]);
+            q[1][e] = col[1][i][e];
+            q[2][e] = _mm512_sub_ps(col[1][i][e], col[2][i][e]);
+          } else {
+            q[0][e] = _mm512_sub_ps(col[0][i][e], col[2][i][e]);
+            q[1][e] = _mm512_add_ps(col[1][i][e], col[2][i][e]);
+            q[2][e] = _mm512_sub_ps(col[2][i][e], col[1][i][e]);
+            q[3][e] = _mm512_sub_ps(col[1][i][e], col[3][i][e]);
+          }
         }
-        for (int jj = 0; jj < 4; ++jj) store32(out + (4 * i + jj) * stride, q[jj][0], q[jj][1]);
+        for (int jj = 0; jj < kRows; ++jj) store32(out + (kRows * i + jj) * stride, q[jj][0], q[jj][1]);
       }
     }
   }
@@ -134,7 +156,9 @@ LRF_AVX512_BF16 void multiply_rows(int rows, const uint16_t* v, int64_t inputs, 
   }
 }
 
-// Y = Aᵀ M A per tile and 32 outputs, + bias (+ residual), ReLU, rounded to bf16 and stored.
+// Y = Aᵀ M A per tile and 32 outputs, + bias (+ residual), ReLU, rounded to bf16 and stored. Upsampled,
+// M's row and column 2 are zero and the 9 others are stored 3 to a row.
+template <bool Upsampled>
 LRF_AVX512_BF16 void transform_outputs(const Geometry& g, const float* m, const float* bias, bool relu,
                                        const uint16_t* residual, uint16_t* out, int64_t image, int64_t ty, int64_t tx0,
                                        int tiles) {
@@ -145,26 +169,40 @@ LRF_AVX512_BF16 void transform_outputs(const Geometry& g, const float* m, const 
       __m512 y[2][2][2];  // [row][column][16 outputs]
       for (int h = 0; h < 2; ++h) {
         const float* src = m + t * g.outputs + c + 16 * h;
-        __m512 s[2][4];
-        for (int j = 0; j < 4; ++j) {
-          const __m512 m0 = _mm512_loadu_ps(src + (0 + j) * stride), m1 = _mm512_loadu_ps(src + (4 + j) * stride);
-          const __m512 m2 = _mm512_loadu_ps(src + (8 + j) * stride), m3 = _mm512_loadu_ps(src + (12 + j) * stride);
-          s[0][j] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
-          s[1][j] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
-        }
         const __m512 b = _mm512_loadu_ps(bias + c + 16 * h);
-        for (int a = 0; a < 2; ++a) {
-          y[a][0][h] = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(s[a][0], s[a][1]), s[a][2]), b);
-          y[a][1][h] = _mm512_add_ps(_mm512_sub_ps(_mm512_sub_ps(s[a][1], s[a][2]), s[a][3]), b);
+        if constexpr (Upsampled) {
+          __m512 s[2][3];
+          for (int j = 0; j < 3; ++j) {
+            const __m512 m0 = _mm512_loadu_ps(src + (0 + j) * stride), m1 = _mm512_loadu_ps(src + (3 + j) * stride);
+            const __m512 m3 = _mm512_loadu_ps(src + (6 + j) * stride);
+            s[0][j] = _mm512_add_ps(m0, m1);
+            s[1][j] = _mm512_sub_ps(m1, m3);
+          }
+          for (int a = 0; a < 2; ++a) {
+            y[a][0][h] = _mm512_add_ps(_mm512_add_ps(s[a][0], s[a][1]), b);
+            y[a][1][h] = _mm512_add_ps(_mm512_sub_ps(s[a][1], s[a][2]), b);
+          }
+        } else {
+          __m512 s[2][4];
+          for (int j = 0; j < 4; ++j) {
+            const __m512 m0 = _mm512_loadu_ps(src + (0 + j) * stride), m1 = _mm512_loadu_ps(src + (4 + j) * stride);
+            const __m512 m2 = _mm512_loadu_ps(src + (8 + j) * stride), m3 = _mm512_loadu_ps(src + (12 + j) * stride);
+            s[0][j] = _mm512_add_ps(_mm512_add_ps(m0, m1), m2);
+            s[1][j] = _mm512_sub_ps(_mm512_sub_ps(m1, m2), m3);
+          }
+          for (int a = 0; a < 2; ++a) {
+            y[a][0][h] = _mm512_add_ps(_mm512_add_ps(_mm512_add_ps(s[a][0], s[a][1]), s[a][2]), b);
+            y[a][1][h] = _mm512_add_ps(_mm512_sub_ps(_mm512_sub_ps(s[a][1], s[a][2]), s[a][3]), b);
+          }
         }
       }
       for (int a = 0; a < 2; ++a) {
         const int64_t row = 2 * ty + a;
-        if (row >= g.h) break;
+        if (row >= g.out_h) break;
         for (int e = 0; e < 2; ++e) {
           const int64_t x = 2 * (tx0 + t) + e;
-          if (x >= g.w) break;
-          const int64_t at = ((image * g.h + row) * g.w + x) * g.outputs + c;
+          if (x >= g.out_w) break;
+          const int64_t at = ((image * g.out_h + row) * g.out_w + x) * g.outputs + c;
           __m512 low = y[a][e][0], high = y[a][e][1];
           if (residual) {
             low = _mm512_add_ps(low, load16(residual + at));
@@ -182,16 +220,20 @@ LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* 
                          const uint16_t* residual, uint16_t* out) {
   const int64_t units = g.n * g.tiles_y * g.units_per_row;
   at::parallel_for(0, units, 1, [&](int64_t begin, int64_t end) {
-    std::vector<uint16_t> v(static_cast<size_t>(16 * kTilesPerUnit * g.inputs));
-    std::vector<float> m(static_cast<size_t>(16 * kTilesPerUnit * g.outputs));
+    std::vector<uint16_t> v(static_cast<size_t>(g.positions * kTilesPerUnit * g.inputs));
+    std::vector<float> m(static_cast<size_t>(g.positions * kTilesPerUnit * g.outputs));
     const int64_t position_stride = g.inputs / 2 * g.outputs * 2;
     for (int64_t unit = begin; unit < end; ++unit) {
       const int64_t image = unit / (g.tiles_y * g.units_per_row);
       const int64_t ty = unit / g.units_per_row % g.tiles_y;
       const int64_t tx0 = unit % g.units_per_row * kTilesPerUnit;
       const int tiles = static_cast<int>(std::min<int64_t>(kTilesPerUnit, g.tiles_x - tx0));
-      transform_inputs(g, in, image, ty, tx0, tiles, v.data());
-      for (int p = 0; p < 16; ++p) {
+      if (g.upsampled) {
+        transform_inputs<true>(g, in, image, ty, tx0, tiles, v.data());
+      } else {
+        transform_inputs<false>(g, in, image, ty, tx0, tiles, v.data());
+      }
+      for (int p = 0; p < g.positions; ++p) {
         const uint16_t* vp = v.data() + p * kTilesPerUnit * g.inputs;
         float* mp = m.data() + p * kTilesPerUnit * g.outputs;
         for (int t = 0; t < tiles; t += kTilesPerPass) {
@@ -199,7 +241,11 @@ LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* 
                         g.outputs, mp + t * g.outputs);
         }
       }
-      transform_outputs(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
+      if (g.upsampled) {
+        transform_outputs<true>(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
+      } else {
+        transform_outputs<false>(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
+      }
     }
   });
 }
@@ -225,7 +271,8 @@ bool WinogradConv3x3::available() {
 #endif
 }
 
-WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias) {
+WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input)
+    : upsampled_(upsampled_input) {
   if (weight.dim() != 4 || weight.size(2) != 3 || weight.size(3) != 3) {
     fail("WinogradConv3x3: weight must be [O, I, 3, 3], got " + shape_of(weight));
   }
@@ -233,21 +280,26 @@ WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bia
   if (!takes(outputs_, inputs_)) {
     fail("WinogradConv3x3: needs a multiple of 64 outputs and of 32 inputs, got " + shape_of(weight));
   }
-  // U = G g Gᵀ in float64, rounded once to bf16.
+  // U = G g Gᵀ in float64, rounded once to bf16; upsampled, only rows and columns 0, 1, 3, with the
+  // factor 2 of the input transform's row (column) 1.
   const at::Tensor w = weight.detach().to(at::kDouble).contiguous();
   const double* g = w.data_ptr<double>();
   constexpr double G[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
-  kernels_.assign(static_cast<size_t>(16 * inputs_ * outputs_), 0);
+  const int side = upsampled_ ? 3 : 4;
+  constexpr int kUpsampledRow[3] = {0, 1, 3};
+  kernels_.assign(static_cast<size_t>(side * side * inputs_ * outputs_), 0);
   for (int64_t o = 0; o < outputs_; ++o)
     for (int64_t i = 0; i < inputs_; ++i) {
       const double* k = g + (o * inputs_ + i) * 9;
       double gk[4][3];  // G g
       for (int r = 0; r < 4; ++r)
         for (int c = 0; c < 3; ++c) gk[r][c] = G[r][0] * k[c] + G[r][1] * k[3 + c] + G[r][2] * k[6 + c];
-      for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 4; ++c) {
-          const double u = gk[r][0] * G[c][0] + gk[r][1] * G[c][1] + gk[r][2] * G[c][2];
-          const int64_t p = 4 * r + c;
+      for (int pr = 0; pr < side; ++pr)
+        for (int pc = 0; pc < side; ++pc) {
+          const int r = upsampled_ ? kUpsampledRow[pr] : pr, c = upsampled_ ? kUpsampledRow[pc] : pc;
+          const double scale = upsampled_ ? (r == 1 ? 2.0 : 1.0) * (c == 1 ? 2.0 : 1.0) : 1.0;
+          const double u = scale * (gk[r][0] * G[c][0] + gk[r][1] * G[c][1] + gk[r][2] * G[c][2]);
+          const int64_t p = side * pr + pc;
           // Input i's place in the transformed inputs' order: the evens of its 32, then the odds.
           const int64_t in32 = i % 32, k = i - in32 + (in32 % 2 == 0 ? in32 / 2 : 16 + in32 / 2);
           kernels_[static_cast<size_t>(((p * (inputs_ / 2) + k / 2) * outputs_ + o) * 2 + k % 2)] = to_bf16(u);
@@ -268,9 +320,10 @@ at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at
   if (!available()) fail("WinogradConv3x3: this CPU has no AVX512_BF16");
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const int64_t n = x.size(0), h = x.size(2), w = x.size(3);
+  const int64_t out_h = upsampled_ ? 2 * h : h, out_w = upsampled_ ? 2 * w : w;
   at::Tensor out;
   if (residual.defined()) {
-    const std::vector<int64_t> want{n, outputs_, h, w};
+    const std::vector<int64_t> want{n, outputs_, out_h, out_w};
     if (residual.sizes() != at::IntArrayRef(want) || residual.scalar_type() != at::kBFloat16 ||
         !residual.is_contiguous(at::MemoryFormat::ChannelsLast)) {
       fail("WinogradConv3x3: the residual must be a channels-last bf16 tensor of " + c10::str(at::IntArrayRef(want)) +
@@ -283,11 +336,12 @@ at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at
     }
     out = residual;
   } else {
-    out = at::empty({n, outputs_, h, w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));
+    out = at::empty({n, outputs_, out_h, out_w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));
   }
   if (x.numel() == 0) return out;
 #if defined(__x86_64__)
-  Geometry g{n, h, w, inputs_, outputs_, (h + 1) / 2, (w + 1) / 2, 0};
+  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, upsampled_ ? 9 : 16,
+             upsampled_ ? h : (h + 1) / 2, upsampled_ ? w : (w + 1) / 2, 0};
   g.units_per_row = (g.tiles_x + kTilesPerUnit - 1) / kTilesPerUnit;
   const auto* in = reinterpret_cast<const uint16_t*>(x.data_ptr());
   auto* dst = reinterpret_cast<uint16_t*>(out.data_ptr());

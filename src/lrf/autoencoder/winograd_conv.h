@@ -23,17 +23,21 @@ class WinogradConv3x3 {
   // Whether this CPU runs it (AVX512_BF16 with the OS saving AVX-512 state), and LRF_WINOGRAD is not 0.
   static bool available();
 
-  // weight [O, I, 3, 3], bias [O] or undefined (any dtype and layout; copied).
-  WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias);
+  // weight [O, I, 3, 3], bias [O] or undefined (any dtype and layout; copied). `upsampled_input`: the
+  // convolution of the input upsampled 2x (nearest), computed from the input itself with 9 products per
+  // 2x2 outputs instead of 16, since the upsampled 4x4 patches repeat their middle rows and columns.
+  WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input = false);
 
-  // input [N, I, H, W] bf16 -> [N, O, H, W] bf16 channels-last: conv + bias, then + `residual` when
+  // input [N, I, H, W] bf16 -> [N, O, H, W] (upsampled: [N, O, 2H, 2W]) bf16 channels-last: conv + bias, then + `residual` when
   // defined, then the ReLU when `relu`. A defined residual must be channels-last bf16 of the output's
   // shape, must not overlap the input, and receives the result (it is returned). Needs available().
   at::Tensor forward(const at::Tensor& input, bool relu, const at::Tensor& residual = {}) const;
 
  private:
   int64_t outputs_ = 0, inputs_ = 0;
+  bool upsampled_ = false;
   // bf16 [16 positions][I / 2][O][2]: transformed, in pairs of inputs, each 32 inputs ordered evens first
+  // (9 positions, rows and columns 0, 1, 3, when upsampled)
   std::vector<uint16_t> kernels_;
   std::vector<float> bias_;        // [O], zeros for a layer without bias
 };
