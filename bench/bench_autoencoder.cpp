@@ -209,7 +209,7 @@ void bench_bounds(int reps) {
   };
   const double encode = taef2_encode_flops(kWidth, kHeight);
   const double decode_fused = taef2_decode_flops(kWidth, kHeight) - taef2_upsampling_saving_flops(kWidth, kHeight);
-  bound("decode 504x376 (fused, upsampling as phases)", decode_fused, inference, "issue 17: >= 20 /s");
+  bound("decode 504x376 (fused)", decode_fused, inference, "issue 17: >= 20 /s");
   bound("encode 504x376", encode, inference, "issue 17: >= 10 /s");
   // Stage I, per 192x192 crop (4 per step): the trained encoder forward, data and weight gradients (3
   // passes), the frozen decoder forward and data gradient through the modules (2 passes, no phases),
