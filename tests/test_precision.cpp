@@ -129,6 +129,19 @@ TEST(Precision, CommandLineOptionAndEnvironmentChooseIt) {
   };
   EXPECT_EQ(precision_of("--precision fp32"), "fp32");
   EXPECT_EQ(precision_of("--precision bf16"), "bf16");
+  // The record says whether bf16 inference ran Winograd's convolution.
+  auto winograd_of = [&](const std::string& global_options) {
+    auto r = lrf::test::run_lrf("--quiet " + global_options + " ae roundtrip --json --autoencoder " + taef2() + " " + png);
+    auto json_start = r.output.find('{');
+    if (r.exit_code != 0 || json_start == std::string::npos) return std::string("(failed)");
+    return nlohmann::json::parse(r.output.substr(json_start))["versions"]["autoencoder_winograd"].dump();
+  };
+  EXPECT_EQ(winograd_of("--precision fp32"), "false");
+  EXPECT_EQ(winograd_of("--precision bf16"), lrf::winograd_enabled() ? "true" : "false");
+  {
+    ScopedEnv direct("LRF_WINOGRAD", "0");
+    EXPECT_EQ(winograd_of("--precision bf16"), "false");
+  }
   {
     ScopedEnv no_bf16("LRF_CPU_BF16", "0");
     EXPECT_EQ(precision_of(""), "fp32");  // the default is auto
@@ -170,6 +183,14 @@ TEST(Precision, LatentCacheKeyDiffersBetweenPrecisions) {
   // Both entries hold float32 latents.
   EXPECT_EQ(b.latents[0].scalar_type(), at::kFloat);
   EXPECT_FALSE(torch::equal(a.latents[0], b.latents[0]));
+  // bf16 through oneDNN's direct convolution is a third entry where bf16 ran Winograd's.
+  if (!lrf::winograd_enabled()) return;
+  ScopedEnv direct("LRF_WINOGRAD", "0");
+  auto c = lrf::encode_views_cached(scene, {0, 1}, *ae, id, dir.str());
+  EXPECT_FALSE(c.hit);
+  EXPECT_NE(c.path, b.path);
+  EXPECT_NE(c.path, a.path);
+  EXPECT_FALSE(torch::equal(b.latents[0], c.latents[0]));
 }
 
 // Tolerances below. bf16 keeps 8 significant bits (relative rounding up to 2^-9 = 0.2 %) on every

@@ -1,7 +1,6 @@
 #include "lrf/autoencoder/winograd_conv.h"
 
 #include <algorithm>
-#include <cstdlib>
 #include <cstring>
 #include <string>
 
@@ -260,12 +259,8 @@ bool WinogradConv3x3::takes(int64_t outputs, int64_t inputs) {
 }
 
 bool WinogradConv3x3::available() {
-  static const bool enabled = [] {
-    const char* v = std::getenv("LRF_WINOGRAD");
-    return !(v && std::strcmp(v, "0") == 0);
-  }();
 #if defined(__x86_64__)
-  return enabled && cpu_has_avx512_bf16();
+  return winograd_enabled();
 #else
   return false;
 #endif

@@ -20,7 +20,8 @@ class WinogradConv3x3 {
  public:
   // Channel counts the kernel handles: inputs a multiple of 32, outputs a multiple of 64.
   static bool takes(int64_t outputs, int64_t inputs);
-  // Whether this CPU runs it (AVX512_BF16 with the OS saving AVX-512 state), and LRF_WINOGRAD is not 0.
+  // Whether this CPU runs it (AVX512_BF16 with the OS saving AVX-512 state) and it is not switched off
+  // (winograd_enabled(), cpu_features.h).
   static bool available();
 
   // weight [O, I, 3, 3], bias [O] or undefined (any dtype and layout; copied). `upsampled_input`: the

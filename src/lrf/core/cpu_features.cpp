@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <cstdlib>
+#include <initializer_list>
 #include <string>
 
 #if defined(__x86_64__) || defined(__i386__)
@@ -72,6 +73,14 @@ bool cpu_has_bf16() {
 }
 
 bool cpu_has_avx512_bf16() { return cpu_has_bf16() && support().avx512; }
+
+bool winograd_enabled() {
+  for (const char* name : {"LRF_WINOGRAD", "LRF_FUSED_CONV"}) {
+    const char* v = std::getenv(name);
+    if (v && std::string(v) == "0") return false;
+  }
+  return cpu_has_avx512_bf16();
+}
 
 bool cpu_has_avx2() {
 #if defined(__x86_64__) || defined(__i386__)

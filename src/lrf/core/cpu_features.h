@@ -16,6 +16,11 @@ bool cpu_reports_bf16();
 // project's own bf16 kernels use), and cpu_has_bf16() is not overridden to false.
 bool cpu_has_avx512_bf16();
 
+// Whether bf16 inference may run its 3x3 convolutions as Winograd's F(2x2, 3x3) (winograd_conv.h):
+// cpu_has_avx512_bf16(), and neither $LRF_WINOGRAD nor $LRF_FUSED_CONV (the fused inference path it is
+// part of) is 0. Read on every call, so that a test can switch it.
+bool winograd_enabled();
+
 // Whether the CPU runs AVX2 (8-lane float vectors), for the loops compiled for it beside the baseline
 // ones: the rasterizer's kernels and Adam's update. Asked once; every x86-64 CPU of the last decade has it.
 bool cpu_has_avx2();

@@ -38,7 +38,10 @@ nlohmann::json version_info() {
           // asked for (fp32, bf16 or auto), and whether the CPU has native bf16 (what auto decides on).
           {"autoencoder_precision", precision_name(resolve_precision(default_precision()))},
           {"autoencoder_precision_requested", precision_name(default_precision())},
-          {"cpu_bf16", cpu_has_bf16()}};
+          {"cpu_bf16", cpu_has_bf16()},
+          // Whether bf16 inference ran its 3x3 convolutions as Winograd's (roundings differ from the
+          // direct convolution's).
+          {"autoencoder_winograd", resolve_precision(default_precision()) == Precision::bf16 && winograd_enabled()}};
 }
 
 std::string version_string() {

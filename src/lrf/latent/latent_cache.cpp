@@ -9,6 +9,7 @@
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/resolve.h"
 #include "lrf/core/cache_key.h"
+#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -32,6 +33,8 @@ LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>
   // v2: images are undistorted with a Lanczos kernel at the file's resolution (v1: bilinearly, after the resize).
   key << "lrf-latents-v2;scene=" << fs::absolute(scene.root).lexically_normal().string() << ";ae=" << ae_identity
       << ";precision=" << precision_name(ae.precision());  // bf16 encodes differ from fp32 ones by rounding
+  // ... and bf16 ones through Winograd's convolution from those through the direct one.
+  if (ae.precision() == Precision::bf16 && winograd_enabled()) key << ";convolution=winograd-f2x2-3x3";
   for (int i : indices) {
     const View& v = scene.views.at(static_cast<size_t>(i));
     if (v.camera.width % 8 || v.camera.height % 8) {
