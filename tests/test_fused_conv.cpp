@@ -225,7 +225,8 @@ TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
   EXPECT_NE(lrf::test::error_of([] { lrf::WinogradConv3x3(torch::randn({3, 32, 3, 3}), {}); }).find("multiple of 64"),
             std::string::npos);
   const lrf::WinogradConv3x3 conv(torch::randn({64, 32, 3, 3}), {});
-  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 32, 4, 4}), false); }).find("bf16"), std::string::npos);
+  EXPECT_NE(lrf::test::error_of([&] { conv.forward(torch::randn({1, 32, 4, 4}), false); }).find("bf16"),
+            std::string::npos);
   if (!lrf::WinogradConv3x3::available()) return;
   const at::Tensor x16 = channels_last(torch::randn({1, 32, 4, 4}).to(at::kBFloat16));
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(x16, false, x16.clone()); }).find("residual"), std::string::npos);

@@ -13,6 +13,7 @@
 #include <ATen/Parallel.h>
 #include <oneapi/dnnl/dnnl.hpp>
 
+#include "lrf/autoencoder/conv_destination.h"
 #include "lrf/autoencoder/winograd_conv.h"
 #include "lrf/core/error.h"
 
@@ -121,7 +122,9 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
   if (input.size(2) + 2 * m.padding < m.kh || input.size(3) + 2 * m.padding < m.kw) {
     fail("FusedConv2d: input " + shape_of(input) + " is smaller than the kernel");
   }
-  if (dtype == at::kBFloat16 && m.winograd && WinogradConv3x3::available()) return m.winograd->forward(input, relu, residual);
+  if (dtype == at::kBFloat16 && m.winograd && WinogradConv3x3::available()) {
+    return m.winograd->forward(input, relu, residual);
+  }
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const bool sum = residual.defined();
   std::shared_ptr<const Impl::Prepared> p;
@@ -130,24 +133,8 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
   } catch (const dnnl::error& e) {
     fail(std::string("FusedConv2d: oneDNN has no convolution for ") + shape_of(x) + ": " + e.what());
   }
-  at::Tensor out;
-  if (sum) {
-    const std::vector<int64_t> want{x.size(0), m.outputs, p->out_h, p->out_w};
-    if (residual.sizes() != at::IntArrayRef(want) || residual.scalar_type() != dtype ||
-        !residual.is_contiguous(at::MemoryFormat::ChannelsLast)) {
-      fail("FusedConv2d: the residual must be a channels-last " + std::string(c10::toString(dtype)) + " tensor of " +
-           c10::str(at::IntArrayRef(want)) + ", got " + shape_of(residual));
-    }
-    // oneDNN reads the input while it writes the output: they must not share memory.
-    const auto* in_begin = static_cast<const char*>(x.data_ptr());
-    const auto* res_begin = static_cast<const char*>(residual.data_ptr());
-    if (res_begin < in_begin + x.nbytes() && in_begin < res_begin + residual.nbytes()) {
-      fail("FusedConv2d: the residual shares memory with the input");
-    }
-    out = residual;
-  } else {
-    out = at::empty({x.size(0), m.outputs, p->out_h, p->out_w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));
-  }
+  // oneDNN reads the input while it writes the output: they must not share memory.
+  const at::Tensor out = conv_destination("FusedConv2d", x, residual, {x.size(0), m.outputs, p->out_h, p->out_w});
   const int64_t scratch_bytes = static_cast<int64_t>(p->scratch.get_size());
   at::Tensor scratch = at::empty({std::max<int64_t>(scratch_bytes, 1)}, x.options().dtype(at::kByte));
   dnnl::memory src(p->src, cpu_engine(), x.data_ptr()), dst(p->dst, cpu_engine(), out.data_ptr());

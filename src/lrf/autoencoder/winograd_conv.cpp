@@ -12,6 +12,7 @@
 #include <immintrin.h>
 #endif
 
+#include "lrf/autoencoder/conv_destination.h"
 #include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 
@@ -316,23 +317,7 @@ at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const int64_t n = x.size(0), h = x.size(2), w = x.size(3);
   const int64_t out_h = upsampled_ ? 2 * h : h, out_w = upsampled_ ? 2 * w : w;
-  at::Tensor out;
-  if (residual.defined()) {
-    const std::vector<int64_t> want{n, outputs_, out_h, out_w};
-    if (residual.sizes() != at::IntArrayRef(want) || residual.scalar_type() != at::kBFloat16 ||
-        !residual.is_contiguous(at::MemoryFormat::ChannelsLast)) {
-      fail("WinogradConv3x3: the residual must be a channels-last bf16 tensor of " + c10::str(at::IntArrayRef(want)) +
-           ", got " + shape_of(residual));
-    }
-    const auto* in_begin = static_cast<const char*>(x.data_ptr());
-    const auto* res_begin = static_cast<const char*>(residual.data_ptr());
-    if (res_begin < in_begin + x.nbytes() && in_begin < res_begin + residual.nbytes()) {
-      fail("WinogradConv3x3: the residual shares memory with the input");
-    }
-    out = residual;
-  } else {
-    out = at::empty({n, outputs_, out_h, out_w}, x.options().memory_format(at::MemoryFormat::ChannelsLast));
-  }
+  at::Tensor out = conv_destination("WinogradConv3x3", x, residual, {n, outputs_, out_h, out_w});
   if (x.numel() == 0) return out;
 #if defined(__x86_64__)
   Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, upsampled_ ? 9 : 16,

@@ -29,9 +29,10 @@ class WinogradConv3x3 {
   // 2x2 outputs instead of 16, since the upsampled 4x4 patches repeat their middle rows and columns.
   WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input = false);
 
-  // input [N, I, H, W] bf16 -> [N, O, H, W] (upsampled: [N, O, 2H, 2W]) bf16 channels-last: conv + bias, then + `residual` when
-  // defined, then the ReLU when `relu`. A defined residual must be channels-last bf16 of the output's
-  // shape, must not overlap the input, and receives the result (it is returned). Needs available().
+  // input [N, I, H, W] bf16 -> [N, O, H, W] (upsampled: [N, O, 2H, 2W]) bf16 channels-last: conv + bias,
+  // then + `residual` when defined, then the ReLU when `relu`. A defined residual must be channels-last
+  // bf16 of the output's shape, must not overlap the input, and receives the result (it is returned).
+  // Needs available().
   at::Tensor forward(const at::Tensor& input, bool relu, const at::Tensor& residual = {}) const;
 
  private:
