@@ -14,6 +14,11 @@
 namespace lrf {
 namespace {
 
+struct Bf16Support {
+  bool avx512 = false;  // AVX512_BF16 with AVX-512 F/BW/VL/DQ, all saved by the OS
+  bool amx = false;     // AMX-BF16, saved by the OS
+};
+
 #if defined(__x86_64__) || defined(__i386__)
 // XCR0: the register state the OS saves on a context switch. The instructions fault (or their
 // registers get clobbered) unless the OS enabled the state they use.
@@ -24,11 +29,6 @@ uint64_t xcr0() {
   __asm__ volatile("xgetbv" : "=a"(lo), "=d"(hi) : "c"(0));  // inline: no -mxsave for this file
   return (static_cast<uint64_t>(hi) << 32) | lo;
 }
-
-struct Bf16Support {
-  bool avx512 = false;  // AVX512_BF16 with AVX-512 F/BW/VL/DQ, all saved by the OS
-  bool amx = false;     // AMX-BF16, saved by the OS
-};
 
 Bf16Support detect() {
   Bf16Support found;
