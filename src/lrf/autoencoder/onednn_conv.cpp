@@ -1,6 +1,5 @@
 #include "lrf/autoencoder/onednn_conv.h"
 
-#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -214,14 +213,6 @@ at::Tensor UpsampledConv2d::forward(const at::Tensor& input, bool relu) const {
     }
   });
   return out;
-}
-
-bool fused_conv_enabled() {
-  static const bool enabled = [] {
-    const char* v = std::getenv("LRF_FUSED_CONV");
-    return !(v && std::strcmp(v, "0") == 0);
-  }();
-  return enabled;
 }
 
 }  // namespace lrf

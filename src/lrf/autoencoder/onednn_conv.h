@@ -61,8 +61,4 @@ class UpsampledConv2d {
   std::unique_ptr<WinogradConv3x3> winograd_;
 };
 
-// Whether the autoencoders' inference may use FusedConv2d: yes unless LRF_FUSED_CONV=0 (kept to compare
-// against libtorch's path, and as a way out should a oneDNN build misbehave).
-bool fused_conv_enabled();
-
 }  // namespace lrf

@@ -10,6 +10,7 @@
 #include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_block.h"
 #include "lrf/autoencoder/tiny_fused.h"
+#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 
 namespace lrf {

@@ -74,13 +74,18 @@ bool cpu_has_bf16() {
 
 bool cpu_has_avx512_bf16() { return cpu_has_bf16() && support().avx512; }
 
-bool winograd_enabled() {
-  for (const char* name : {"LRF_WINOGRAD", "LRF_FUSED_CONV"}) {
-    const char* v = std::getenv(name);
-    if (v && std::string(v) == "0") return false;
-  }
-  return cpu_has_avx512_bf16();
+namespace {
+
+bool switched_off(const char* name) {
+  const char* v = std::getenv(name);
+  return v && std::string(v) == "0";
 }
+
+}  // namespace
+
+bool fused_conv_enabled() { return !switched_off("LRF_FUSED_CONV"); }
+
+bool winograd_enabled() { return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && cpu_has_avx512_bf16(); }
 
 bool cpu_has_avx2() {
 #if defined(__x86_64__) || defined(__i386__)

@@ -1,5 +1,6 @@
 #pragma once
-// What the CPU can run, asked at run time (the build targets baseline x86-64).
+// What the CPU can run, asked at run time (the build targets baseline x86-64), and the environment
+// switches that keep the project's own kernels from using it.
 namespace lrf {
 
 // Whether the CPU multiplies bf16 matrices natively, which is what makes bf16 convolutions fast in
@@ -16,9 +17,14 @@ bool cpu_reports_bf16();
 // project's own bf16 kernels use), and cpu_has_bf16() is not overridden to false.
 bool cpu_has_avx512_bf16();
 
+// Whether the autoencoders' inference may run its fused convolutions (onednn_conv.h): yes unless
+// $LRF_FUSED_CONV=0 (kept to compare against libtorch's path, and as a way out should a oneDNN build
+// misbehave). Read on every call, so that a test can switch it.
+bool fused_conv_enabled();
+
 // Whether bf16 inference may run its 3x3 convolutions as Winograd's F(2x2, 3x3) (winograd_conv.h):
-// cpu_has_avx512_bf16(), and neither $LRF_WINOGRAD nor $LRF_FUSED_CONV (the fused inference path it is
-// part of) is 0. Read on every call, so that a test can switch it.
+// cpu_has_avx512_bf16(), fused_conv_enabled() (the fused path it is part of), and $LRF_WINOGRAD is not 0.
+// Read on every call.
 bool winograd_enabled();
 
 // Whether the CPU runs AVX2 (8-lane float vectors), for the loops compiled for it beside the baseline
