@@ -50,8 +50,9 @@ LRF_AVX512_BF16 inline void store32(uint16_t* p, __m512 low, __m512 high) {
 struct Geometry {
   int64_t n, in_h, in_w, out_h, out_w, inputs, outputs;
   bool upsampled;  // the input is upsampled 2x (nearest) before the convolution
-  int positions;   // products per tile: 16, or 9 when upsampled
   int64_t tiles_y, tiles_x, units_per_row;
+  // Products per tile: 16, or 9 when upsampled.
+  int positions() const { return upsampled ? 9 : 16; }
 };
 
 // V = Bᵀ d B for the unit's tiles: v[p][t][k], p = 4 * row + column. 32 input channels are loaded at a
@@ -220,8 +221,8 @@ LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* 
                          const uint16_t* residual, uint16_t* out) {
   const int64_t units = g.n * g.tiles_y * g.units_per_row;
   at::parallel_for(0, units, 1, [&](int64_t begin, int64_t end) {
-    std::vector<uint16_t> v(static_cast<size_t>(g.positions * kTilesPerUnit * g.inputs));
-    std::vector<float> m(static_cast<size_t>(g.positions * kTilesPerUnit * g.outputs));
+    std::vector<uint16_t> v(static_cast<size_t>(g.positions() * kTilesPerUnit * g.inputs));
+    std::vector<float> m(static_cast<size_t>(g.positions() * kTilesPerUnit * g.outputs));
     const int64_t position_stride = g.inputs / 2 * g.outputs * 2;
     for (int64_t unit = begin; unit < end; ++unit) {
       const int64_t image = unit / (g.tiles_y * g.units_per_row);
@@ -233,7 +234,7 @@ LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* 
       } else {
         transform_inputs<false>(g, in, image, ty, tx0, tiles, v.data());
       }
-      for (int p = 0; p < g.positions; ++p) {
+      for (int p = 0; p < g.positions(); ++p) {
         const uint16_t* vp = v.data() + p * kTilesPerUnit * g.inputs;
         float* mp = m.data() + p * kTilesPerUnit * g.outputs;
         for (int t = 0; t < tiles; t += kTilesPerPass) {
@@ -313,15 +314,17 @@ at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at
   if (input.dim() != 4 || input.size(1) != inputs_ || input.scalar_type() != at::kBFloat16) {
     fail("WinogradConv3x3: input must be bf16 [N, " + std::to_string(inputs_) + ", H, W], got " + shape_of(input));
   }
-  if (!available()) fail("WinogradConv3x3: this CPU has no AVX512_BF16");
+  if (!available()) {
+    fail("WinogradConv3x3: not available (the CPU has no AVX512_BF16, or LRF_WINOGRAD=0 / LRF_FUSED_CONV=0 "
+         "switched it off)");
+  }
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const int64_t n = x.size(0), h = x.size(2), w = x.size(3);
   const int64_t out_h = upsampled_ ? 2 * h : h, out_w = upsampled_ ? 2 * w : w;
   at::Tensor out = conv_destination("WinogradConv3x3", x, residual, {n, outputs_, out_h, out_w});
   if (x.numel() == 0) return out;
 #if defined(__x86_64__)
-  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, upsampled_ ? 9 : 16,
-             upsampled_ ? h : (h + 1) / 2, upsampled_ ? w : (w + 1) / 2, 0};
+  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, upsampled_ ? h : (h + 1) / 2, upsampled_ ? w : (w + 1) / 2, 0};
   g.units_per_row = (g.tiles_x + kTilesPerUnit - 1) / kTilesPerUnit;
   const auto* in = reinterpret_cast<const uint16_t*>(x.data_ptr());
   auto* dst = reinterpret_cast<uint16_t*>(out.data_ptr());
