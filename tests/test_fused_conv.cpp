@@ -138,14 +138,27 @@ RelativeError relative_error(const at::Tensor& got, const at::Tensor& want) {
 // misplaced tile gives errors the size of the values themselves.
 constexpr double kWinogradRms = 1.0 / 128, kWinogradMax = 1.0 / 32;
 
+// What each Winograd test convolves: a bf16 channels-last input of `shape` = [N, I, H, W], weights of a
+// trained layer's scale [outputs, I, 3, 3] and a bias, drawn from `seed`.
+struct WinogradCase {
+  at::Tensor x16, w, b;
+};
+
+WinogradCase winograd_case(uint64_t seed, const std::vector<int64_t>& shape, int64_t outputs) {
+  torch::manual_seed(seed);
+  WinogradCase c;
+  c.x16 = channels_last(torch::randn(shape).to(at::kBFloat16));
+  c.w = torch::randn({outputs, shape[1], 3, 3}) * 0.1;
+  c.b = torch::randn({outputs});
+  return c;
+}
+
 TEST(WinogradConv3x3, MatchesAFloat64LoopWithinBf16Rounding) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
-  torch::manual_seed(11);
   // 29 columns: 15 tiles, a full unit of 12 and a short one of 3 with a partial last tile; 9 rows: a
   // partial last tile row.
-  const at::Tensor x16 = channels_last(torch::randn({2, 32, 9, 29}).to(at::kBFloat16));
-  const at::Tensor w = torch::randn({64, 32, 3, 3}) * 0.1;
-  const at::Tensor b = torch::randn({64});
+  const WinogradCase c = winograd_case(11, {2, 32, 9, 29}, 64);
+  const at::Tensor &x16 = c.x16, &w = c.w, &b = c.b;
   const lrf::WinogradConv3x3 conv(w, b);
   const at::Tensor y = conv.forward(x16, false);
   ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, 64, 9, 29}));
@@ -173,10 +186,8 @@ TEST(WinogradConv3x3, MatchesAFloat64LoopWithinBf16Rounding) {
 
 TEST(WinogradConv3x3, FusedConv2dTakesItWhereTheCpuHasBf16AndOneDnnElsewhere) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
-  torch::manual_seed(12);
-  const at::Tensor x16 = channels_last(torch::randn({1, 64, 10, 14}).to(at::kBFloat16));
-  const at::Tensor w = torch::randn({64, 64, 3, 3}) * 0.1;
-  const at::Tensor b = torch::randn({64});
+  const WinogradCase c = winograd_case(12, {1, 64, 10, 14}, 64);
+  const at::Tensor &x16 = c.x16, &w = c.w, &b = c.b;
   const lrf::FusedConv2d fused(w, b, 1, 1);
   const lrf::WinogradConv3x3 winograd(w, b);
   const at::Tensor by_winograd = winograd.forward(x16, true);
@@ -196,11 +207,9 @@ TEST(WinogradConv3x3, FusedConv2dTakesItWhereTheCpuHasBf16AndOneDnnElsewhere) {
 
 TEST(WinogradConv3x3, OfAnUpsampledInputMatchesAFloat64Loop) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
-  torch::manual_seed(13);
   // 15 columns: a unit of 12 tiles and one of 3; 5 rows; the output is 10x30.
-  const at::Tensor x16 = channels_last(torch::randn({2, 32, 5, 15}).to(at::kBFloat16));
-  const at::Tensor w = torch::randn({64, 32, 3, 3}) * 0.1;
-  const at::Tensor b = torch::randn({64});
+  const WinogradCase c = winograd_case(13, {2, 32, 5, 15}, 64);
+  const at::Tensor &x16 = c.x16, &w = c.w, &b = c.b;
   const lrf::WinogradConv3x3 conv(w, b, true);
   const at::Tensor y = conv.forward(x16, true);
   ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, 64, 10, 30}));
