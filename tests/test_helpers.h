@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -125,17 +126,42 @@ inline std::string precision_param_name(const ::testing::TestParamInfo<Precision
   return precision_name(info.param);
 }
 
-// Column `column` (0 = step) of a run's train_log.csv, one value per logged row.
+// The header line of a run's train_log.csv ("" when the file cannot be read).
+inline std::string logged_header(const std::string& log) {
+  std::ifstream in(log);
+  std::string header;
+  std::getline(in, header);
+  return header;
+}
+
+// Column `column` (0 = step) of a run's train_log.csv, one value per logged row. A row without that
+// column, or a cell that is not a number, throws an error naming the file, row and column.
 inline std::vector<double> logged_column(const std::string& log, int column) {
   std::ifstream in(log);
+  if (!in) throw std::runtime_error(log + ": cannot be read");
   std::string line;
   std::getline(in, line);  // the header
   std::vector<double> values;
-  while (std::getline(in, line)) {
+  for (int row = 1; std::getline(in, line); ++row) {
     if (line.empty()) continue;
     size_t start = 0;
-    for (int k = 0; k < column; ++k) start = line.find(',', start) + 1;
-    values.push_back(std::stod(line.substr(start)));
+    for (int k = 0; k < column && start != std::string::npos; ++k) {
+      start = line.find(',', start);
+      if (start != std::string::npos) ++start;
+    }
+    const std::string cell = start == std::string::npos ? "" : line.substr(start, line.find(',', start) - start);
+    size_t used = 0;
+    double value = 0;
+    try {
+      value = std::stod(cell, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0) {
+      throw std::runtime_error(log + ": row " + std::to_string(row) + " has no number in column " +
+                               std::to_string(column) + ": '" + line + "'");
+    }
+    values.push_back(value);
   }
   return values;
 }

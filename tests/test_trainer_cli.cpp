@@ -2,7 +2,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -72,9 +71,7 @@ TEST(TrainerCli, TrainRenderEvalOnSyntheticScene) {
   // 1 and 2 threads, two builds that differ only in float rounding): 10 views on a ring overfit, and
   // which way the held-out views go is chaotic. So the fit is held to a bound well up its range (the
   // untrained field's views are near 11 dB), the held-out views only to beating the untrained field.
-  std::ifstream log(out + "/train_log.csv");
-  std::string header;
-  std::getline(log, header);
+  const std::string header = lrf::test::logged_header(out + "/train_log.csv");
   EXPECT_EQ(header.rfind("step,loss,psnr,", 0), 0u) << header;
   const std::vector<double> fit = lrf::test::logged_column(out + "/train_log.csv", 2);
   ASSERT_GE(fit.size(), 5u) << "train_log.csv has too few rows";
