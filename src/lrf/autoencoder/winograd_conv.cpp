@@ -6,7 +6,6 @@
 
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
-#include <c10/util/BFloat16.h>
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -19,10 +18,17 @@
 namespace lrf {
 namespace {
 
+// Rounds to the nearest bf16, ties to even (NaN stays NaN), as c10::BFloat16 does, in a form loops
+// vectorise.
+inline uint16_t to_bf16(float v) {
+  uint32_t bits;
+  std::memcpy(&bits, &v, sizeof bits);
+  if (v != v) return 0x7FC0;
+  return static_cast<uint16_t>((bits + 0x7FFF + ((bits >> 16) & 1)) >> 16);
+}
+
 constexpr int kTilesPerUnit = 12;  // 2x2 output tiles along a row transformed and multiplied together
 constexpr int kTilesPerPass = 6;   // tiles whose 64 outputs are accumulated in registers: 6 x 4 zmm
-
-uint16_t to_bf16(double v) { return c10::BFloat16(static_cast<float>(v)).x; }
 
 #if defined(__x86_64__)
 #define LRF_AVX512_BF16 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq,avx512bf16")))
@@ -277,31 +283,47 @@ WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bia
   if (!takes(outputs_, inputs_)) {
     fail("WinogradConv3x3: needs a multiple of 64 outputs and of 32 inputs, got " + shape_of(weight));
   }
-  // U = G g Gᵀ in float64, rounded once to bf16; upsampled, only rows and columns 0, 1, 3, with the
-  // factor 2 of the input transform's row (column) 1.
-  const at::Tensor w = weight.detach().to(at::kDouble).contiguous();
-  const double* g = w.data_ptr<double>();
+  // U = G g Gᵀ in float64, rounded once to bf16 (through float32); upsampled, only rows and columns 0, 1,
+  // 3, with the factor 2 of the input transform's row (column) 1. The training passes transform their
+  // weights on every call, so the loops run over the outputs (contiguous, vectorised) for each input,
+  // inputs spread over the threads.
+  const at::Tensor w = weight.detach().to(at::kDouble).permute({1, 2, 3, 0}).contiguous();  // [I, 3, 3, O]
+  const double* src = w.data_ptr<double>();
   constexpr double G[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
   const int side = upsampled_ ? 3 : 4;
   constexpr int kUpsampledRow[3] = {0, 1, 3};
   kernels_.assign(static_cast<size_t>(side * side * inputs_ * outputs_), 0);
-  for (int64_t o = 0; o < outputs_; ++o)
-    for (int64_t i = 0; i < inputs_; ++i) {
-      const double* k = g + (o * inputs_ + i) * 9;
-      double gk[4][3];  // G g
+  const int64_t o_count = outputs_, i_count = inputs_;
+  uint16_t* kernels = kernels_.data();
+  at::parallel_for(0, inputs_, 8, [&](int64_t i0, int64_t i1) {
+    std::vector<double> gk(static_cast<size_t>(12 * o_count));  // G g: [row r][kernel column c][O]
+    for (int64_t i = i0; i < i1; ++i) {
+      const double* k = src + i * 9 * o_count;  // k[(3 * row + column) * O + o]
       for (int r = 0; r < 4; ++r)
-        for (int c = 0; c < 3; ++c) gk[r][c] = G[r][0] * k[c] + G[r][1] * k[3 + c] + G[r][2] * k[6 + c];
+        for (int c = 0; c < 3; ++c) {
+          double* out = gk.data() + (r * 3 + c) * o_count;
+          const double* k0 = k + c * o_count;
+          const double* k1 = k + (3 + c) * o_count;
+          const double* k2 = k + (6 + c) * o_count;
+          for (int64_t o = 0; o < o_count; ++o) out[o] = G[r][0] * k0[o] + G[r][1] * k1[o] + G[r][2] * k2[o];
+        }
+      // Input i's place in the transformed inputs' order: the evens of its 32, then the odds.
+      const int64_t in32 = i % 32, slot = i - in32 + (in32 % 2 == 0 ? in32 / 2 : 16 + in32 / 2);
       for (int pr = 0; pr < side; ++pr)
         for (int pc = 0; pc < side; ++pc) {
           const int r = upsampled_ ? kUpsampledRow[pr] : pr, c = upsampled_ ? kUpsampledRow[pc] : pc;
           const double scale = upsampled_ ? (r == 1 ? 2.0 : 1.0) * (c == 1 ? 2.0 : 1.0) : 1.0;
-          const double u = scale * (gk[r][0] * G[c][0] + gk[r][1] * G[c][1] + gk[r][2] * G[c][2]);
+          const double* g0 = gk.data() + (r * 3) * o_count;
+          const double* g1 = g0 + o_count;
+          const double* g2 = g1 + o_count;
           const int64_t p = side * pr + pc;
-          // Input i's place in the transformed inputs' order: the evens of its 32, then the odds.
-          const int64_t in32 = i % 32, k = i - in32 + (in32 % 2 == 0 ? in32 / 2 : 16 + in32 / 2);
-          kernels_[static_cast<size_t>(((p * (inputs_ / 2) + k / 2) * outputs_ + o) * 2 + k % 2)] = to_bf16(u);
+          uint16_t* dst = kernels + ((p * (i_count / 2) + slot / 2) * o_count) * 2 + slot % 2;
+          for (int64_t o = 0; o < o_count; ++o) {
+            dst[2 * o] = to_bf16(static_cast<float>(scale * (g0[o] * G[c][0] + g1[o] * G[c][1] + g2[o] * G[c][2])));
+          }
         }
     }
+  });
   bias_.assign(static_cast<size_t>(outputs_), 0.f);
   if (bias.defined()) {
     if (bias.dim() != 1 || bias.size(0) != outputs_) fail("WinogradConv3x3: bias must be [O], got " + shape_of(bias));
