@@ -8,11 +8,13 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/autoencoder/tiny_block.h"
 #include "lrf/autoencoder/tiny_fused.h"
 #include "lrf/autoencoder/winograd_conv.h"
+#include "lrf/autoencoder/winograd_training.h"
 #include "lrf/core/cpu_features.h"
 #include "test_helpers.h"
 
@@ -239,6 +241,148 @@ TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
   if (!lrf::WinogradConv3x3::available()) return;
   const at::Tensor x16 = channels_last(torch::randn({1, 32, 4, 4}).to(at::kBFloat16));
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(x16, false, x16.clone()); }).find("residual"), std::string::npos);
+}
+
+// Training in bf16 (winograd_training.h): MixedConv2d's forward and input gradient through Winograd,
+// its weight and bias gradients through oneDNN's direct bf16 convolution, against float64. The
+// upstream gradient is rounded to bf16 first, as a bf16 layer's backward rounds it, so what remains is
+// the roundings the forward test bounds (the input gradient is the same Winograd convolution, of the
+// transposed kernels), and for the weights and bias sums over pixels of products of bf16 values, rounded
+// once to bf16: kWinogradRms and kWinogradMax hold for all four.
+TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  // 7x11: partial tiles in both directions.
+  const WinogradCase c = winograd_case(14, {2, 64, 7, 11}, 64);
+  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(64, 64, 3).padding(1));
+  {
+    torch::NoGradGuard no_grad;
+    conv->weight.copy_(c.w);
+    conv->bias.copy_(c.b);
+  }
+  const at::Tensor x16 = c.x16.clone().requires_grad_(true);
+  const at::Tensor up = channels_last(torch::randn({2, 64, 7, 11}).to(at::kBFloat16)).to(at::kFloat);
+  const at::Tensor y = conv->forward(x16);
+  EXPECT_EQ(y.scalar_type(), at::kBFloat16);
+  // The forward is exactly the inference kernel's.
+  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b).forward(c.x16, false)));
+  y.backward(up.to(at::kBFloat16));
+
+  // float64 reference: libtorch's double convolution and its autograd, on the same rounded input.
+  const at::Tensor xd = c.x16.to(at::kDouble).requires_grad_(true);
+  const at::Tensor wd = c.w.to(at::kDouble).requires_grad_(true), bd = c.b.to(at::kDouble).requires_grad_(true);
+  const at::Tensor yd = at::conv2d(xd, wd, bd, 1, 1);
+  yd.backward(up.to(at::kDouble));
+  for (const auto& [got, want] : std::vector<std::pair<at::Tensor, at::Tensor>>{
+           {y, yd}, {x16.grad(), xd.grad()}, {conv->weight.grad(), wd.grad()}, {conv->bias.grad(), bd.grad()}}) {
+    const RelativeError e = relative_error(got, want);
+    EXPECT_LT(e.rms, kWinogradRms);
+    EXPECT_LT(e.max, kWinogradMax);
+  }
+  EXPECT_EQ(conv->weight.grad().scalar_type(), at::kFloat);  // the master weights' gradients stay float32
+  // A layer without bias (as the decoder's after each upsampling) takes the same path.
+  lrf::MixedConv2d plain(torch::nn::Conv2dOptions(64, 64, 3).padding(1).bias(false));
+  {
+    torch::NoGradGuard no_grad;
+    plain->weight.copy_(c.w);
+  }
+  const at::Tensor y0 = plain->forward(x16);
+  EXPECT_TRUE(torch::equal(y0.detach(), lrf::WinogradConv3x3(c.w, {}).forward(c.x16, false)));
+  y0.backward(up.to(at::kBFloat16));
+  EXPECT_TRUE(torch::equal(plain->weight.grad(), conv->weight.grad()));
+  EXPECT_TRUE(relative_error(y, reference_conv(c.x16.to(at::kFloat), c.w, c.b, 1, 1, {}, false)).rms < kWinogradRms);
+
+  // The float64 reference's gradients agree with central differences of the float64 loop: the loss
+  // sum(up * conv) is linear in each entry, so the differences are exact but for float64 rounding.
+  const at::Tensor upd = up.to(at::kDouble);
+  auto loss = [&](const at::Tensor& x, const at::Tensor& w) {
+    return (reference_conv(x, w, c.b, 1, 1, {}, false) * upd).sum().item<double>();
+  };
+  const at::Tensor x0 = c.x16.to(at::kDouble).contiguous(), w0 = c.w.to(at::kDouble).contiguous();
+  for (int64_t i : {0L, 517L, 9855L}) {
+    at::Tensor plus = x0.clone(), minus = x0.clone();
+    plus.view(-1)[i] += 0.5;
+    minus.view(-1)[i] -= 0.5;
+    EXPECT_NEAR((loss(plus, w0) - loss(minus, w0)), xd.grad().reshape(-1)[i].item<double>(), 1e-9);
+  }
+  for (int64_t i : {3L, 20000L, 36863L}) {
+    at::Tensor plus = w0.clone(), minus = w0.clone();
+    plus.view(-1)[i] += 0.5;
+    minus.view(-1)[i] -= 0.5;
+    EXPECT_NEAR((loss(x0, plus) - loss(x0, minus)), wd.grad().reshape(-1)[i].item<double>(), 1e-9);
+  }
+}
+
+// A residual block's last convolution: relu(conv(x) + r), the add and the ReLU applied as the
+// convolution stores, and in the backward the ReLU's mask applied as the gradient is read; the residual's
+// gradient is that masked gradient. The mask is the derivative at the computed output, which is what
+// the float64 backward is given (an output within rounding of 0 may have the other sign in float64: that
+// is checked apart); then the tolerances above.
+TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  const WinogradCase c = winograd_case(16, {2, 64, 9, 6}, 64);
+  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(64, 64, 3).padding(1));
+  {
+    torch::NoGradGuard no_grad;
+    conv->weight.copy_(c.w);
+    conv->bias.copy_(c.b);
+  }
+  const at::Tensor x16 = c.x16.clone().requires_grad_(true);
+  const at::Tensor r16 = channels_last(torch::randn({2, 64, 9, 6}).to(at::kBFloat16)).requires_grad_(true);
+  const at::Tensor up = channels_last(torch::randn({2, 64, 9, 6}).to(at::kBFloat16)).to(at::kFloat);
+  const at::Tensor y = conv->forward_with(x16, r16, true);
+  // The forward is the inference kernel's, residual and ReLU included; the caller's residual is unchanged.
+  at::Tensor into = r16.detach().clone(at::MemoryFormat::ChannelsLast);
+  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b).forward(c.x16, true, into)));
+  y.backward(up.to(at::kBFloat16));
+
+  const at::Tensor xd = c.x16.to(at::kDouble).requires_grad_(true), rd = r16.detach().to(at::kDouble).requires_grad_(true);
+  const at::Tensor wd = c.w.to(at::kDouble).requires_grad_(true), bd = c.b.to(at::kDouble).requires_grad_(true);
+  const at::Tensor before_relu = at::conv2d(xd, wd, bd, 1, 1) + rd;
+  const at::Tensor mask = y.detach().gt(0);
+  before_relu.backward(up.to(at::kDouble) * mask);
+  const at::Tensor yd = before_relu.detach().relu();
+  EXPECT_GT(yd.eq(0).sum().item<int64_t>(), 0);  // the ReLU clipped something
+  // Where the mask and float64's sign disagree, the output is within the forward's tolerance of 0.
+  const at::Tensor disagree = mask.ne(before_relu.detach().gt(0));
+  EXPECT_LT(disagree.sum().item<int64_t>(), yd.numel() / 100);
+  if (disagree.any().item<bool>()) {
+    EXPECT_LT(before_relu.detach().masked_select(disagree).abs().max().item<double>(),
+              kWinogradMax * yd.abs().max().item<double>());
+  }
+  for (const auto& [got, want] : std::vector<std::pair<at::Tensor, at::Tensor>>{{y, yd},
+                                                                                {x16.grad(), xd.grad()},
+                                                                                {r16.grad(), rd.grad()},
+                                                                                {conv->weight.grad(), wd.grad()},
+                                                                                {conv->bias.grad(), bd.grad()}}) {
+    const RelativeError e = relative_error(got, want);
+    EXPECT_LT(e.rms, kWinogradRms);
+    EXPECT_LT(e.max, kWinogradMax);
+  }
+  // Switched off, the same call is the plain layer's relu(conv + r).
+  lrf::test::ScopedEnv off("LRF_WINOGRAD", "0");
+  const at::Tensor direct = conv->forward_with(c.x16, r16.detach(), true);
+  EXPECT_TRUE(torch::equal(direct, (conv->forward(c.x16) + r16.detach()).relu()));
+}
+
+// Without AVX512_BF16 (or with LRF_WINOGRAD=0) the same layer trains on libtorch's direct bf16
+// convolution, whose roundings differ.
+TEST(WinogradTraining, SwitchedOffTheLayerTrainsDirect) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  const WinogradCase c = winograd_case(15, {1, 64, 6, 8}, 64);
+  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(64, 64, 3).padding(1));
+  {
+    torch::NoGradGuard no_grad;
+    conv->weight.copy_(c.w);
+    conv->bias.copy_(c.b);
+  }
+  const at::Tensor winograd = conv->forward(c.x16);
+  lrf::test::ScopedEnv off("LRF_WINOGRAD", "0");
+  const at::Tensor direct = conv->forward(c.x16);
+  EXPECT_FALSE(torch::equal(direct, winograd));
+  EXPECT_TRUE(torch::equal(direct, at::conv2d(c.x16, c.w.to(at::kBFloat16), c.b.to(at::kBFloat16), 1, 1)));
+  EXPECT_FALSE(lrf::winograd_trains(c.x16, c.w));
+  EXPECT_NE(lrf::test::error_of([&] { lrf::winograd_conv3x3_trained(c.x16, c.w, c.b); }).find("AVX512_BF16"),
+            std::string::npos);
 }
 
 TEST(FusedConv2d, RefusesBadShapes) {

@@ -335,7 +335,10 @@ TEST(Bf16Taef2, TrainedWeightsAndTheirGradientsStayFloat32) {
 // training convolutions run in tiles, oneDNN's AMX kernels give NaN in the last layer's gradient and a
 // relative error of 1.4 in the full-resolution layers' (mixed_layers.cpp); in tiles every parameter's
 // gradient agrees with fp32's to bf16's rounding (measured: largest relative error per parameter
-// weight tensor 0.157, 1 - cosine of the whole gradient 0.0011; bounds at about twice those).
+// weight tensor 0.157, 1 - cosine of the whole gradient 0.0011; bounds at about twice those). Where
+// Winograd runs the layers below full resolution (forward and input gradient, winograd_training.h), each
+// of those convolutions rounds ~2.5x as much (WinogradConv3x3.*), and so does the gradient: measured
+// 0.207 and 1 - cosine 0.0031, so the cosine's bound is 0.994 there (about twice again).
 // A squared error, whose upstream gradient moves smoothly with the decode (an L1 loss's signs flip).
 TEST(Bf16Taef2, DecoderWeightGradientOfAWholeViewAgreesWithFp32) {
   auto ae = lrf::load_autoencoder(taef2());
@@ -368,7 +371,7 @@ TEST(Bf16Taef2, DecoderWeightGradientOfAWholeViewAgreesWithFp32) {
   }
   const double cos = cosine(torch::cat(flat16), torch::cat(flat32));
   std::printf("whole-view decoder weight gradient, bf16 vs fp32: largest relative error %.4f, cosine %.5f\n", worst, cos);
-  EXPECT_GT(cos, 0.997);
+  EXPECT_GT(cos, lrf::winograd_enabled() ? 0.994 : 0.997);
 }
 
 // The KL-VAE's bf16 path (group norms and the attention's softmax in float32): random weights, so only

@@ -5,6 +5,7 @@
 
 #include <ATen/ATen.h>
 
+#include "lrf/autoencoder/winograd_training.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -71,17 +72,37 @@ at::Tensor conv2d_in_tiles(const at::Tensor& input, const at::Tensor& weight, co
   return out.contiguous(input.suggest_memory_format());
 }
 
+bool MixedConv2dImpl::runs_winograd(const at::Tensor& input) const {
+  const auto& pad = *c10::get<torch::ExpandingArray<2>>(options.padding());
+  const auto& s = *options.stride();
+  const auto& d = *options.dilation();
+  return pad[0] == 1 && pad[1] == 1 && s[0] == 1 && s[1] == 1 && d[0] == 1 && d[1] == 1 && options.groups() == 1 &&
+         winograd_trains(input, weight);
+}
+
 at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
+  // Tiles first: the weight gradient of a whole large image is what they keep from oneDNN on AMX.
   if (needs_tiles(input)) {
     return conv2d_in_tiles(input, weight, bias, options.stride(), c10::get<torch::ExpandingArray<2>>(options.padding()),
                            options.dilation(), options.groups(), kWeightGradientTile);
   }
+  if (runs_winograd(input)) return winograd_conv3x3_trained(input, weight, bias);
   const auto dtype = input.scalar_type();
   // Same dtype: no cast, so fp32 runs exactly the plain layer's arithmetic.
   at::Tensor w = weight.scalar_type() == dtype ? weight : weight.to(dtype);
   at::Tensor b = !bias.defined() || bias.scalar_type() == dtype ? bias : bias.to(dtype);
   return at::conv2d(input, w, b, options.stride(), c10::get<torch::ExpandingArray<2>>(options.padding()),
                     options.dilation(), options.groups());
+}
+
+at::Tensor MixedConv2dImpl::forward_with(const at::Tensor& input, const at::Tensor& residual, bool relu) {
+  if (!needs_tiles(input) && runs_winograd(input)) {
+    return winograd_conv3x3_trained(input, weight, bias, residual, relu);
+  }
+  at::Tensor y = forward(input);
+  if (residual.defined()) y = y + residual;
+  // In place: a convolution's backward does not need its output, nor an add's.
+  return relu ? y.relu_() : y;
 }
 
 MixedGroupNormImpl::MixedGroupNormImpl(const torch::nn::GroupNormOptions& options)

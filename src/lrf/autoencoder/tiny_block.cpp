@@ -29,7 +29,11 @@ TinyBlockImpl::TinyBlockImpl(int channels, bool with_pool) {
 
 at::Tensor TinyBlockImpl::forward(at::Tensor x) {
   if (pool) x = x + pool->forward(x);
-  return (conv->forward(x) + x).relu_();
+  // The ReLU modules between the convolutions are applied by the convolutions themselves (forward_with),
+  // which in bf16 training store relu(conv + residual) in one pass; the modules stay for the layout.
+  at::Tensor h = conv->at<MixedConv2dImpl>(0).forward_with(x, {}, true);
+  h = conv->at<MixedConv2dImpl>(2).forward_with(h, {}, true);
+  return conv->at<MixedConv2dImpl>(4).forward_with(h, x, true);
 }
 
 }  // namespace lrf
