@@ -39,8 +39,8 @@ nlohmann::json version_info() {
           {"autoencoder_precision", precision_name(resolve_precision(default_precision()))},
           {"autoencoder_precision_requested", precision_name(default_precision())},
           {"cpu_bf16", cpu_has_bf16()},
-          // Whether bf16 inference ran its 3x3 convolutions as Winograd's (roundings differ from the
-          // direct convolution's).
+          // Whether bf16 inference and training ran their 3x3 convolutions as Winograd's (roundings
+          // differ from the direct convolution's).
           {"autoencoder_winograd", resolve_precision(default_precision()) == Precision::bf16 && winograd_enabled()}};
 }
 
