@@ -243,6 +243,15 @@ TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(x16, false, x16.clone()); }).find("residual"), std::string::npos);
 }
 
+// A training layer (float32 master weights) holding the case's weights and bias.
+lrf::MixedConv2d layer_of(const WinogradCase& c) {
+  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(c.w.size(1), c.w.size(0), 3).padding(1));
+  torch::NoGradGuard no_grad;
+  conv->weight.copy_(c.w);
+  conv->bias.copy_(c.b);
+  return conv;
+}
+
 // Training in bf16 (winograd_training.h): MixedConv2d's forward and input gradient through Winograd,
 // its weight and bias gradients through oneDNN's direct bf16 convolution, against float64. The
 // upstream gradient is rounded to bf16 first, as a bf16 layer's backward rounds it, so what remains is
@@ -253,12 +262,7 @@ TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
   // 7x11: partial tiles in both directions.
   const WinogradCase c = winograd_case(14, {2, 64, 7, 11}, 64);
-  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(64, 64, 3).padding(1));
-  {
-    torch::NoGradGuard no_grad;
-    conv->weight.copy_(c.w);
-    conv->bias.copy_(c.b);
-  }
+  lrf::MixedConv2d conv = layer_of(c);
   const at::Tensor x16 = c.x16.clone().requires_grad_(true);
   const at::Tensor up = channels_last(torch::randn({2, 64, 7, 11}).to(at::kBFloat16)).to(at::kFloat);
   const at::Tensor y = conv->forward(x16);
@@ -320,12 +324,7 @@ TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
 TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
   const WinogradCase c = winograd_case(16, {2, 64, 9, 6}, 64);
-  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(64, 64, 3).padding(1));
-  {
-    torch::NoGradGuard no_grad;
-    conv->weight.copy_(c.w);
-    conv->bias.copy_(c.b);
-  }
+  lrf::MixedConv2d conv = layer_of(c);
   const at::Tensor x16 = c.x16.clone().requires_grad_(true);
   const at::Tensor r16 = channels_last(torch::randn({2, 64, 9, 6}).to(at::kBFloat16)).requires_grad_(true);
   const at::Tensor up = channels_last(torch::randn({2, 64, 9, 6}).to(at::kBFloat16)).to(at::kFloat);
@@ -369,12 +368,7 @@ TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
 TEST(WinogradTraining, SwitchedOffTheLayerTrainsDirect) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
   const WinogradCase c = winograd_case(15, {1, 64, 6, 8}, 64);
-  lrf::MixedConv2d conv(torch::nn::Conv2dOptions(64, 64, 3).padding(1));
-  {
-    torch::NoGradGuard no_grad;
-    conv->weight.copy_(c.w);
-    conv->bias.copy_(c.b);
-  }
+  lrf::MixedConv2d conv = layer_of(c);
   const at::Tensor winograd = conv->forward(c.x16);
   lrf::test::ScopedEnv off("LRF_WINOGRAD", "0");
   const at::Tensor direct = conv->forward(c.x16);
