@@ -73,6 +73,8 @@ at::Tensor conv2d_in_tiles(const at::Tensor& input, const at::Tensor& weight, co
 }
 
 bool MixedConv2dImpl::runs_winograd(const at::Tensor& input) const {
+  // Tiles come first: the weight gradient of a whole large image is what they keep from oneDNN on AMX.
+  if (needs_tiles(input)) return false;
   const auto& pad = *c10::get<torch::ExpandingArray<2>>(options.padding());
   const auto& s = *options.stride();
   const auto& d = *options.dilation();
@@ -81,7 +83,6 @@ bool MixedConv2dImpl::runs_winograd(const at::Tensor& input) const {
 }
 
 at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
-  // Tiles first: the weight gradient of a whole large image is what they keep from oneDNN on AMX.
   if (needs_tiles(input)) {
     return conv2d_in_tiles(input, weight, bias, options.stride(), c10::get<torch::ExpandingArray<2>>(options.padding()),
                            options.dilation(), options.groups(), kWeightGradientTile);
@@ -96,9 +97,7 @@ at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
 }
 
 at::Tensor MixedConv2dImpl::forward_with(const at::Tensor& input, const at::Tensor& residual, bool relu) {
-  if (!needs_tiles(input) && runs_winograd(input)) {
-    return winograd_conv3x3_trained(input, weight, bias, residual, relu);
-  }
+  if (runs_winograd(input)) return winograd_conv3x3_trained(input, weight, bias, residual, relu);
   at::Tensor y = forward(input);
   if (residual.defined()) y = y + residual;
   // In place: a convolution's backward does not need its output, nor an add's.

@@ -23,7 +23,7 @@ class MixedConv2dImpl : public torch::nn::Conv2dImpl {
   // A bf16 convolution whose weight gradient will be taken, on an output larger than one tile.
   bool needs_tiles(const at::Tensor& input) const;
   // A bf16 3x3 convolution that Winograd's F(2x2, 3x3) runs, forward and input gradient
-  // (winograd_training.h).
+  // (winograd_training.h): one that needs no tiles.
   bool runs_winograd(const at::Tensor& input) const;
 };
 TORCH_MODULE(MixedConv2d);
