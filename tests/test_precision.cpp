@@ -244,6 +244,11 @@ TEST(Bf16Taef2, RoundTripPsnrWithinAFewHundredthsOfADecibel) {
 // bf16 rounding in the backward pass perturbs each component by a few percent of its size (the same
 // rounding as the forward, now on the gradients), so the direction is what must agree: measured cosine
 // 0.9973 and relative error 7.4 % (bounds: 1 - cosine and the error at about twice the measured ones).
+// Where Winograd runs the frozen decoder's layers (forward and input gradient, winograd_training.h), each
+// of those convolutions rounds ~2.5x as much (WinogradConv3x3.*): measured cosine 0.9939 and relative
+// error 11.3 % on a 2-core EPYC (0.9965 and 8.3 % with LRF_WINOGRAD=0 on the same machine; an L1 loss's
+// upstream signs flip where the two decodes straddle the image, so the figure moves a little between
+// machines), hence bounds of 0.988 and 0.23 there, by the same rule.
 TEST(Bf16Taef2, LatentGradientAgreesWithFp32) {
   auto ae = lrf::load_autoencoder(taef2());
   ae->set_decoder_trainable(false);
@@ -259,8 +264,8 @@ TEST(Bf16Taef2, LatentGradientAgreesWithFp32) {
   ASSERT_EQ(g16.scalar_type(), at::kFloat);
   const double cos = cosine(g16, g32), rel = relative_error(g16, g32);
   std::printf("latent gradient, bf16 vs fp32: cosine %.5f, relative error %.4f\n", cos, rel);
-  EXPECT_GT(cos, 0.994);
-  EXPECT_LT(rel, 0.15);
+  EXPECT_GT(cos, lrf::winograd_enabled() ? 0.988 : 0.994);
+  EXPECT_LT(rel, lrf::winograd_enabled() ? 0.23 : 0.15);
   for (const auto& p : ae->decoder_parameters()) EXPECT_FALSE(p.grad().defined());
 }
 
