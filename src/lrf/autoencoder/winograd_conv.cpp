@@ -7,10 +7,7 @@
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 
-#if defined(__x86_64__)
-#include <immintrin.h>
-#endif
-
+#include "lrf/autoencoder/bf16_vectors.h"
 #include "lrf/autoencoder/conv_destination.h"
 #include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
@@ -31,26 +28,15 @@ constexpr int kTilesPerUnit = 12;  // 2x2 output tiles along a row transformed a
 constexpr int kTilesPerPass = 6;   // tiles whose 64 outputs are accumulated in registers: 6 x 4 zmm
 
 #if defined(__x86_64__)
-#define LRF_AVX512_BF16 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq,avx512bf16")))
-
-constexpr __mmask16 kAll = 0xFFFF;
-
-LRF_AVX512_BF16 inline __m512 load16(const uint16_t* p) {
-  const __m256i h = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
-  // The maskz forms: GCC 12's unmasked ones read an uninitialised register and warn about it.
-  return _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, _mm512_maskz_cvtepu16_epi32(kAll, h), 16));
-}
+using bf16_vectors::kAll;
+using bf16_vectors::load16;
+using bf16_vectors::store32;
 
 // 32 channels c..c+31 as float32: [0] the even ones, [1] the odd ones (two instructions, no shuffles).
 LRF_AVX512_BF16 inline void load32_split(const uint16_t* p, __m512 out[2]) {
   const __m512i v = _mm512_loadu_si512(p);
   out[0] = _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, v, 16));
   out[1] = _mm512_castsi512_ps(_mm512_maskz_and_epi32(kAll, v, _mm512_set1_epi32(static_cast<int>(0xFFFF0000u))));
-}
-
-// Rounds 2 x 16 floats to bf16 and stores them, `low` first.
-LRF_AVX512_BF16 inline void store32(uint16_t* p, __m512 low, __m512 high) {
-  _mm512_storeu_si512(p, reinterpret_cast<__m512i>(_mm512_cvtne2ps_pbh(high, low)));
 }
 
 struct Geometry {

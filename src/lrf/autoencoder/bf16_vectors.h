@@ -1,0 +1,29 @@
+#pragma once
+// AVX-512 loads and stores of bf16 channel vectors, shared by the Winograd kernels (winograd_conv.cpp,
+// winograd_weight_gradient.cpp). Each function is compiled for AVX512_BF16 on its own, so the build
+// stays generic; callers check WinogradConv3x3::available() before running them.
+#include <cstdint>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+
+#define LRF_AVX512_BF16 __attribute__((target("avx512f,avx512bw,avx512vl,avx512dq,avx512bf16")))
+
+namespace lrf::bf16_vectors {
+
+constexpr __mmask16 kAll = 0xFFFF;
+
+// 16 bf16 values as float32.
+LRF_AVX512_BF16 inline __m512 load16(const uint16_t* p) {
+  const __m256i h = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  // The maskz forms: GCC 12's unmasked ones read an uninitialised register and warn about it.
+  return _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, _mm512_maskz_cvtepu16_epi32(kAll, h), 16));
+}
+
+// Rounds 2 x 16 floats to bf16 (nearest, ties to even) and stores them, `low` first.
+LRF_AVX512_BF16 inline void store32(uint16_t* p, __m512 low, __m512 high) {
+  _mm512_storeu_si512(p, reinterpret_cast<__m512i>(_mm512_cvtne2ps_pbh(high, low)));
+}
+
+}  // namespace lrf::bf16_vectors
+#endif
