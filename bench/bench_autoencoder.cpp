@@ -8,8 +8,12 @@
 //             (the ceiling for the networks, which are almost only such convolutions)
 //   bounds    the least time of a decode, an encode, a Stage I and a Stage III step if every convolution
 //             ran at the rate of the fastest bf16 64->64 convolution measured here (FLOPs / that rate):
-//             inference's (Winograd where the CPU has AVX512_BF16) for decode and encode, the direct
-//             convolution's for the training steps
+//             inference's (Winograd where the CPU has AVX512_BF16) for decode and encode and for the
+//             training steps' forward and data gradients, the faster weight gradient's (Winograd's or
+//             the direct one's) for their weight gradients
+//   wgrad     the weight and bias gradient of one 64->64 3x3 convolution on 4 crops of 96x96 (a Stage I
+//             step's encoder level), bf16: oneDNN's direct one against Winograd's (where the CPU has
+//             AVX512_BF16), alternated
 //   encode    image -> latent, no gradient
 //   decode    latent -> image, no gradient
 //   fused     encode and decode, bf16 then fp32: the torch modules against the fused layers
@@ -41,6 +45,7 @@
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/winograd_conv.h"
+#include "lrf/autoencoder/winograd_weight_gradient.h"
 #include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/core/allocator.h"
@@ -169,6 +174,29 @@ void bench_conv(int reps) {
   });
 }
 
+// The weight and bias gradient of a 64->64 3x3 convolution over 4 crops of 96x96, bf16 channels-last:
+// oneDNN's direct kernel (what training ran before) against Winograd's transposed transforms.
+void bench_weight_gradient(int reps) {
+  if (!lrf::WinogradConv3x3::available()) {
+    std::printf("wgrad: Winograd not available on this CPU (or switched off); skipped\n\n");
+    return;
+  }
+  torch::NoGradGuard no_grad;
+  torch::manual_seed(0);
+  const int side = 96, crops = 4;
+  const at::Tensor x = torch::randn({crops, 64, side, side}).to(at::kBFloat16).contiguous(at::MemoryFormat::ChannelsLast);
+  const at::Tensor g = torch::randn({crops, 64, side, side}).to(at::kBFloat16).contiguous(at::MemoryFormat::ChannelsLast);
+  const at::Tensor w16 = (torch::randn({64, 64, 3, 3}) * 0.05).to(at::kBFloat16);
+  alternate("wgrad", reps, 2.0 * kConv64 * side * side * crops, "direct", "winograd", [&](bool by_winograd) {
+    if (by_winograd) {
+      lrf::winograd_weight_gradient(x, g);
+    } else {
+      at::convolution_backward(g, x, w16, at::IntArrayRef{64}, {1, 1}, {1, 1}, {1, 1}, false, {0, 0}, 1,
+                               {false, true, true});
+    }
+  });
+}
+
 // The least time each measured workload can take on this CPU if every convolution ran as fast as the
 // fastest one measured here (a 64->64 3x3 at 504x376, bf16, channels-last, through libtorch's path or
 // the fused one, best of `reps`): multiply-adds counted from the architecture, as in the GFLOP/s
@@ -183,26 +211,35 @@ void bench_bounds(int reps) {
   // Direct: at::conv2d's bf16 convolution, what training's autograd path runs. Inference: the fused
   // layer, which is Winograd's F(2x2, 3x3) where the CPU has AVX512_BF16 (4/9 of the multiply-adds; its
   // rate below counts the direct convolution's, so it can exceed the CPU's peak).
-  double best_direct = 1e30, best_inference = 1e30;
+  // Weight gradients: oneDNN's direct one, or Winograd's where the CPU has AVX512_BF16.
+  const bool winograd = lrf::WinogradConv3x3::available();
+  double best_direct = 1e30, best_inference = 1e30, best_weight = 1e30;
   for (int r = 0; r < reps + 1; ++r) {
-    for (int way = 0; way < 2; ++way) {
+    for (int way = 0; way < 3; ++way) {
       const double t0 = now();
       if (way == 0) {
         at::Tensor y = at::conv2d(x, w16, {}, 1, 1);
-      } else {
+      } else if (way == 1) {
         at::Tensor y = fused.forward(x, true);
+      } else if (winograd) {
+        lrf::winograd_weight_gradient(x, x);
+      } else {
+        at::convolution_backward(x, x, w16, at::IntArrayRef{64}, {1, 1}, {1, 1}, {1, 1}, false, {0, 0}, 1,
+                                 {false, true, true});
       }
       if (r == 0) continue;  // the first round builds the kernels
-      double& best = way == 0 ? best_direct : best_inference;
+      double& best = way == 0 ? best_direct : way == 1 ? best_inference : best_weight;
       best = std::min(best, now() - t0);
     }
   }
   const double conv_flops = 2.0 * kConv64 * kWidth * kHeight;
   const double direct = conv_flops / best_direct;
   const double inference = conv_flops / std::min(best_direct, best_inference);
-  std::printf("bounds: fastest bf16 64->64 3x3 convolution at %dx%d here: direct %.0f GFLOP/s, inference (%s) %.0f\n",
-              kWidth, kHeight, direct * 1e-9, lrf::WinogradConv3x3::available() ? "Winograd" : "oneDNN direct",
-              inference * 1e-9);
+  const double weight_gradient = conv_flops / best_weight;
+  std::printf("bounds: fastest bf16 64->64 3x3 convolution at %dx%d here: direct %.0f GFLOP/s, inference (%s) %.0f, "
+              "weight gradient (%s) %.0f\n",
+              kWidth, kHeight, direct * 1e-9, winograd ? "Winograd" : "oneDNN direct", inference * 1e-9,
+              winograd ? "Winograd" : "oneDNN direct", weight_gradient * 1e-9);
   auto bound = [&](const char* what, double flops, double seconds, const char* target) {
     std::printf("bounds: %-44s %7.1f GFLOP  >= %7.1f ms  <= %6.2f /s   (%s)\n", what, flops * 1e-9, 1e3 * seconds,
                 1 / seconds, target);
@@ -213,14 +250,14 @@ void bench_bounds(int reps) {
   bound("encode 504x376", encode, encode / inference, "issue 17: >= 10 /s");
   // Stage I, per 192x192 crop (4 per step): the trained encoder forward, data and weight gradients, the
   // frozen decoder forward and data gradient, the original encoder forward. The weight gradients run at
-  // the direct rate, every other pass at inference's (Winograd, where the CPU has AVX512_BF16, runs the
-  // forward and the data gradient in training too).
+  // the weight gradient's rate, every other pass at inference's (Winograd, where the CPU has
+  // AVX512_BF16, runs all three passes in training too).
   const double e192 = taef2_encode_flops(192, 192), d192 = taef2_decode_flops(192, 192);
   bound("Stage I step (4 crops of 192x192)", 4 * (4 * e192 + 2 * d192),
-        4 * ((3 * e192 + 2 * d192) / inference + e192 / direct), "issue 17: <= 0.3 s");
+        4 * ((3 * e192 + 2 * d192) / inference + e192 / weight_gradient), "issue 17: <= 0.3 s");
   // Stage III, per 128x128 crop (2 + 2 per step): the trained decoder forward, data and weight gradients.
   const double d128 = taef2_decode_flops(128, 128);
-  bound("Stage III step (4 crops of 128x128)", 4 * 3 * d128, 4 * (2 * d128 / inference + d128 / direct),
+  bound("Stage III step (4 crops of 128x128)", 4 * 3 * d128, 4 * (2 * d128 / inference + d128 / weight_gradient),
         "issue 17: <= 0.3 s");
   std::printf("\n");
   std::fflush(stdout);
@@ -409,15 +446,17 @@ int main(int argc, char** argv) {
       cases.insert(argv[i]);
     }
   }
-  const std::set<std::string> known = {"conv", "bounds", "encode", "decode", "fused", "backward", "stage1", "stage3", "quality", "kl"};
+  const std::set<std::string> known = {"conv",     "bounds", "wgrad",  "encode",  "decode", "fused",
+                                       "backward", "stage1", "stage3", "quality", "kl"};
   for (const auto& c : cases) {
     if (!known.count(c)) {
-      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv bounds encode decode fused backward stage1 stage3 quality kl)\n",
+      std::fprintf(stderr, "bench_autoencoder: unknown case '%s' (conv bounds wgrad encode decode fused backward stage1 stage3 "
+                   "quality kl)\n",
                    c.c_str());
       return 2;
     }
   }
-  if (cases.empty()) cases = {"conv", "bounds", "encode", "decode", "backward", "stage1", "stage3", "quality"};
+  if (cases.empty()) cases = {"conv", "bounds", "wgrad", "encode", "decode", "backward", "stage1", "stage3", "quality"};
   lrf::set_thread_count(threads);
   double load[3] = {0, 0, 0};
   if (getloadavg(load, 3) > 0) std::printf("load average at start: %.2f; %d threads; %d repetitions\n", load[0], threads, reps);
@@ -425,6 +464,7 @@ int main(int argc, char** argv) {
   try {
     if (cases.count("conv")) bench_conv(reps);
     if (cases.count("bounds")) bench_bounds(reps);
+    if (cases.count("wgrad")) bench_weight_gradient(reps);
     if (cases.count("encode") || cases.count("decode") || cases.count("fused") || cases.count("backward") || cases.count("quality")) {
       auto ae = make_taef2();
       bench_taef2(*ae, cases, reps);

@@ -15,6 +15,7 @@
 #include "lrf/autoencoder/tiny_fused.h"
 #include "lrf/autoencoder/winograd_conv.h"
 #include "lrf/autoencoder/winograd_training.h"
+#include "lrf/autoencoder/winograd_weight_gradient.h"
 #include "lrf/core/cpu_features.h"
 #include "test_helpers.h"
 
@@ -252,12 +253,11 @@ lrf::MixedConv2d layer_of(const WinogradCase& c) {
   return conv;
 }
 
-// Training in bf16 (winograd_training.h): MixedConv2d's forward and input gradient through Winograd,
-// its weight and bias gradients through oneDNN's direct bf16 convolution, against float64. The
-// upstream gradient is rounded to bf16 first, as a bf16 layer's backward rounds it, so what remains is
-// the roundings the forward test bounds (the input gradient is the same Winograd convolution, of the
-// transposed kernels), and for the weights and bias sums over pixels of products of bf16 values, rounded
-// once to bf16: kWinogradRms and kWinogradMax hold for all four.
+// Training in bf16 (winograd_training.h): MixedConv2d's forward, input, weight and bias gradients
+// through Winograd, against float64. The upstream gradient is rounded to bf16 first, as a bf16 layer's
+// backward rounds it, so what remains is the roundings the forward test bounds (the input gradient is
+// the same Winograd convolution, of the transposed kernels; the weight and bias gradients are bounded
+// the same way in WinogradWeightGradient below): kWinogradRms and kWinogradMax hold for all four.
 TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
   // 7x11: partial tiles in both directions.
@@ -361,6 +361,63 @@ TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
   lrf::test::ScopedEnv off("LRF_WINOGRAD", "0");
   const at::Tensor direct = conv->forward_with(c.x16, r16.detach(), true);
   EXPECT_TRUE(torch::equal(direct, (conv->forward(c.x16) + r16.detach()).relu()));
+}
+
+// The weight and bias gradients by Winograd's transposed transforms, against float64 autograd on the
+// same bf16 values. 13x21 pixels are 7x11 tiles, partial at the right and bottom edges; paired along
+// rows, the last of each row has no partner, and the 42 pairs are a full chunk of 32 and one of 10;
+// 128 inputs are two blocks of 64, and 160 outputs end in a short block of 4 after 26 of 6. Each transformed input and gradient is rounded
+// to bf16 once (2^-9 relative) and the inverse kernel transform adds 16 of their products' sums with
+// cancellation, as the forward's output transform does: the forward's bounds, kWinogradRms and
+// kWinogradMax. A dropped tile, wrong sign or misplaced position gives errors of order 1.
+TEST(WinogradWeightGradient, MatchesFloat64AutogradAndIsDeterministic) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  const WinogradCase c = winograd_case(17, {1, 128, 13, 21}, 160);
+  const at::Tensor g16 = channels_last(torch::randn({1, 160, 13, 21}).to(at::kBFloat16));
+  const lrf::ConvParameterGradients got = lrf::winograd_weight_gradient(c.x16, g16);
+  ASSERT_EQ(got.weight.sizes(), c.w.sizes());
+  ASSERT_EQ(got.bias.sizes(), c.b.sizes());
+  EXPECT_EQ(got.weight.scalar_type(), at::kFloat);
+
+  const at::Tensor wd = c.w.to(at::kDouble).requires_grad_(true), bd = c.b.to(at::kDouble).requires_grad_(true);
+  at::conv2d(c.x16.to(at::kDouble), wd, bd, 1, 1).backward(g16.to(at::kDouble));
+  for (const auto& [mine, want] : {std::pair{got.weight, wd.grad()}, std::pair{got.bias, bd.grad()}}) {
+    const RelativeError e = relative_error(mine, want);
+    EXPECT_LT(e.rms, kWinogradRms);
+    EXPECT_LT(e.max, kWinogradMax);
+  }
+  // The bias gradient is a plain sum of bf16 values in float32: far tighter than the bounds above.
+  EXPECT_LT(relative_error(got.bias, bd.grad()).max, 1e-5);
+  // Partial sums are added in a fixed order: the same inputs give the same bits.
+  const lrf::ConvParameterGradients again = lrf::winograd_weight_gradient(c.x16, g16);
+  EXPECT_TRUE(torch::equal(again.weight, got.weight));
+  EXPECT_TRUE(torch::equal(again.bias, got.bias));
+  // The float64 reference's weight gradient agrees with central differences of the float64 loop (the
+  // loss Σ g · conv is linear in each weight, so they are exact but for float64 rounding).
+  const at::Tensor x0 = c.x16.to(at::kDouble), gd = g16.to(at::kDouble), w0 = c.w.to(at::kDouble).contiguous();
+  for (int64_t i : {0L, 4321L, 184319L}) {
+    at::Tensor plus = w0.clone(), minus = w0.clone();
+    plus.view(-1)[i] += 0.5;
+    minus.view(-1)[i] -= 0.5;
+    const double difference = ((reference_conv(x0, plus, c.b, 1, 1, {}, false) -
+                                reference_conv(x0, minus, c.b, 1, 1, {}, false)) * gd).sum().item<double>();
+    EXPECT_NEAR(difference, wd.grad().reshape(-1)[i].item<double>(), 1e-9);
+  }
+}
+
+TEST(WinogradWeightGradient, RefusesWhatItCannotRun) {
+  EXPECT_TRUE(lrf::winograd_weight_gradient_takes(32, 64));
+  EXPECT_FALSE(lrf::winograd_weight_gradient_takes(64, 32));  // inputs are summed 64 at a time
+  EXPECT_FALSE(lrf::winograd_weight_gradient_takes(16, 64));  // outputs are transformed 32 at a time
+  const at::Tensor x = channels_last(torch::randn({1, 64, 6, 6}).to(at::kBFloat16));
+  const at::Tensor g = channels_last(torch::randn({1, 64, 6, 5}).to(at::kBFloat16));
+  EXPECT_NE(lrf::test::error_of([&] { lrf::winograd_weight_gradient(x, g); }).find("[1, 64, 6, 5]"),
+            std::string::npos);
+  EXPECT_NE(lrf::test::error_of([&] { lrf::winograd_weight_gradient(x.to(at::kFloat), x); }).find("bf16"),
+            std::string::npos);
+  const at::Tensor narrow = channels_last(torch::randn({1, 32, 6, 6}).to(at::kBFloat16));
+  EXPECT_NE(lrf::test::error_of([&] { lrf::winograd_weight_gradient(narrow, x); }).find("multiple of 64"),
+            std::string::npos);
 }
 
 // Without AVX512_BF16 (or with LRF_WINOGRAD=0) the same layer trains on libtorch's direct bf16

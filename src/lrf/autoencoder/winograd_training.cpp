@@ -7,6 +7,7 @@
 #include <torch/autograd.h>
 
 #include "lrf/autoencoder/winograd_conv.h"
+#include "lrf/autoencoder/winograd_weight_gradient.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -66,11 +67,10 @@ class WinogradConvFunction : public torch::autograd::Function<WinogradConvFuncti
     }
     const bool need_weight = ctx->needs_input_grad(1), need_bias = ctx->needs_input_grad(2);
     if (need_weight || need_bias) {
-      const int64_t outputs = weight.size(0);
-      auto grads = at::convolution_backward(g, x, weight.to(at::kBFloat16), at::IntArrayRef{outputs}, {1, 1}, {1, 1},
-                                            {1, 1}, false, {0, 0}, 1, {false, need_weight, need_bias});
-      if (need_weight) grad_weight = std::get<1>(grads).to(weight.scalar_type());
-      if (need_bias) grad_bias = std::get<2>(grads).to(weight.scalar_type());
+      // Also by Winograd (winograd_weight_gradient.h), in float32 without a rounding to bf16.
+      ConvParameterGradients grads = winograd_weight_gradient(x, g);
+      if (need_weight) grad_weight = grads.weight;
+      if (need_bias) grad_bias = grads.bias;
     }
     // The placeholder of a missing residual takes no gradient, so this asks for a real one only.
     if (ctx->needs_input_grad(3)) grad_residual = g;
@@ -87,6 +87,7 @@ bool winograd_trains(const at::Tensor& input, const at::Tensor& weight) {
   }
   const int64_t outputs = weight.size(0), inputs = weight.size(1);
   return WinogradConv3x3::takes(outputs, inputs) && WinogradConv3x3::takes(inputs, outputs) &&
+         winograd_weight_gradient_takes(outputs, inputs) &&
          WinogradConv3x3::available();
 }
 
