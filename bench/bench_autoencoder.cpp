@@ -184,8 +184,10 @@ void bench_weight_gradient(int reps) {
   torch::NoGradGuard no_grad;
   torch::manual_seed(0);
   const int side = 96, crops = 4;
-  const at::Tensor x = torch::randn({crops, 64, side, side}).to(at::kBFloat16).contiguous(at::MemoryFormat::ChannelsLast);
-  const at::Tensor g = torch::randn({crops, 64, side, side}).to(at::kBFloat16).contiguous(at::MemoryFormat::ChannelsLast);
+  const auto bf16_image = [&] {
+    return torch::randn({crops, 64, side, side}).to(at::kBFloat16).contiguous(at::MemoryFormat::ChannelsLast);
+  };
+  const at::Tensor x = bf16_image(), g = bf16_image();
   const at::Tensor w16 = (torch::randn({64, 64, 3, 3}) * 0.05).to(at::kBFloat16);
   alternate("wgrad", reps, 2.0 * kConv64 * side * side * crops, "direct", "winograd", [&](bool by_winograd) {
     if (by_winograd) {

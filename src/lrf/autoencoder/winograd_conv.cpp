@@ -332,7 +332,8 @@ at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at
   at::Tensor out = conv_destination("WinogradConv3x3", x, residual, {n, outputs_, out_h, out_w});
   if (x.numel() == 0) return out;
 #if defined(__x86_64__)
-  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, upsampled_ ? h : (h + 1) / 2, upsampled_ ? w : (w + 1) / 2, 0};
+  const int64_t tiles_y = upsampled_ ? h : (h + 1) / 2, tiles_x = upsampled_ ? w : (w + 1) / 2;
+  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, tiles_y, tiles_x, 0};
   g.units_per_row = (g.tiles_x + kTilesPerUnit - 1) / kTilesPerUnit;
   const auto* in = reinterpret_cast<const uint16_t*>(x.data_ptr());
   auto* dst = reinterpret_cast<uint16_t*>(out.data_ptr());

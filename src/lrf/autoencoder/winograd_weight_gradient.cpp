@@ -48,8 +48,9 @@ PairCorner corner_of(const Shape& s, int64_t pair) {
 // Half `e` of 32 channels as float32: e = 0 the even ones, 1 the odd ones (winograd_conv.cpp's split).
 LRF_AVX512_BF16 inline __m512 load_half(const uint16_t* p, int e) {
   const __m512i v = _mm512_loadu_si512(p);
-  return _mm512_castsi512_ps(e == 0 ? _mm512_maskz_slli_epi32(kAll, v, 16)
-                                    : _mm512_maskz_and_epi32(kAll, v, _mm512_set1_epi32(static_cast<int>(0xFFFF0000u))));
+  const __m512i high_halves = _mm512_set1_epi32(static_cast<int>(0xFFFF0000u));
+  const __m512i half = e == 0 ? _mm512_maskz_slli_epi32(kAll, v, 16) : _mm512_maskz_and_epi32(kAll, v, high_halves);
+  return _mm512_castsi512_ps(half);
 }
 
 // Rounds two tiles' 16 channels to bf16 and stores them interleaved, [channel][tile]: the pairs that the
