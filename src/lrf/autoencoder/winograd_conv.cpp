@@ -30,14 +30,8 @@ constexpr int kTilesPerPass = 6;   // tiles whose 64 outputs are accumulated in 
 #if defined(__x86_64__)
 using bf16_vectors::kAll;
 using bf16_vectors::load16;
+using bf16_vectors::load32_split;
 using bf16_vectors::store32;
-
-// 32 channels c..c+31 as float32: [0] the even ones, [1] the odd ones (two instructions, no shuffles).
-LRF_AVX512_BF16 inline void load32_split(const uint16_t* p, __m512 out[2]) {
-  const __m512i v = _mm512_loadu_si512(p);
-  out[0] = _mm512_castsi512_ps(_mm512_maskz_slli_epi32(kAll, v, 16));
-  out[1] = _mm512_castsi512_ps(_mm512_maskz_and_epi32(kAll, v, _mm512_set1_epi32(static_cast<int>(0xFFFF0000u))));
-}
 
 struct Geometry {
   int64_t n, in_h, in_w, out_h, out_w, inputs, outputs;

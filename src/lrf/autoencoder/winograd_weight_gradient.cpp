@@ -34,7 +34,7 @@ struct Shape {
 };
 
 #if defined(__x86_64__)
-using bf16_vectors::kAll;
+using bf16_vectors::load32_half;
 
 struct PairCorner {
   int64_t image, y, x;  // top-left output pixel of the pair's first tile
@@ -43,14 +43,6 @@ struct PairCorner {
 PairCorner corner_of(const Shape& s, int64_t pair) {
   const int64_t per_image = s.tiles_y * s.pairs_x;
   return {pair / per_image, 2 * (pair % per_image / s.pairs_x), 4 * (pair % s.pairs_x)};
-}
-
-// Half `e` of 32 channels as float32: e = 0 the even ones, 1 the odd ones (winograd_conv.cpp's split).
-LRF_AVX512_BF16 inline __m512 load_half(const uint16_t* p, int e) {
-  const __m512i v = _mm512_loadu_si512(p);
-  const __m512i high_halves = _mm512_set1_epi32(static_cast<int>(0xFFFF0000u));
-  const __m512i half = e == 0 ? _mm512_maskz_slli_epi32(kAll, v, 16) : _mm512_maskz_and_epi32(kAll, v, high_halves);
-  return _mm512_castsi512_ps(half);
 }
 
 // Rounds two tiles' 16 channels to bf16 and stores them interleaved, [channel][tile]: the pairs that the
@@ -79,7 +71,7 @@ LRF_AVX512_BF16 void transform_inputs(const Shape& s, const uint16_t* in, const 
     __m512 r[6][4];  // Bᵀ d: [column][row]
     for (int j = 0; j < 6; ++j) {
       __m512 d[4];
-      for (int i = 0; i < 4; ++i) d[i] = at[i][j] ? load_half(at[i][j], e) : zero;
+      for (int i = 0; i < 4; ++i) d[i] = at[i][j] ? load32_half(at[i][j], e) : zero;
       r[j][0] = _mm512_sub_ps(d[0], d[2]);
       r[j][1] = _mm512_add_ps(d[1], d[2]);
       r[j][2] = _mm512_sub_ps(d[2], d[1]);
@@ -118,7 +110,7 @@ LRF_AVX512_BF16 void transform_gradients(const Shape& s, const uint16_t* g, cons
     __m512 sum = _mm512_loadu_ps(bias + c + 16 * e);
     __m512 r[4][4];  // A dY: [column][row]
     for (int j = 0; j < 4; ++j) {
-      const __m512 y0 = at[0][j] ? load_half(at[0][j], e) : zero, y1 = at[1][j] ? load_half(at[1][j], e) : zero;
+      const __m512 y0 = at[0][j] ? load32_half(at[0][j], e) : zero, y1 = at[1][j] ? load32_half(at[1][j], e) : zero;
       sum = _mm512_add_ps(sum, _mm512_add_ps(y0, y1));
       r[j][0] = y0;
       r[j][1] = _mm512_add_ps(y0, y1);
