@@ -14,6 +14,9 @@
 //   wgrad     the weight and bias gradient of one 64->64 3x3 convolution on 4 crops of 96x96 (a Stage I
 //             step's encoder level), bf16: oneDNN's direct one against Winograd's (where the CPU has
 //             AVX512_BF16), alternated
+//   tiles     bf16 decode and encode with Winograd's 2x2 output tiles (A) against its 3x3 ones (B, the
+//             default), alternated: two copies of TAEF2 whose layers were built under each
+//             $LRF_WINOGRAD_TILE (where the CPU has AVX512_BF16)
 //   encode    image -> latent, no gradient
 //   decode    latent -> image, no gradient
 //   fused     encode and decode, bf16 then fp32: the torch modules against the fused layers
@@ -323,6 +326,36 @@ void bench_taef2(lrf::Autoencoder& ae, const std::set<std::string>& cases, int r
   }
 }
 
+void bench_tiles(int reps) {
+  if (!lrf::WinogradConv3x3::available()) {
+    std::printf("tiles: Winograd not available on this CPU (or switched off); skipped\n\n");
+    return;
+  }
+  torch::NoGradGuard no_grad;
+  const at::Tensor x = fern_image(0);
+  const char* before = std::getenv("LRF_WINOGRAD_TILE");
+  const std::string kept = before ? before : "";
+  // The fused layers are built on first use, so each copy runs once under its own setting.
+  auto built_with = [&](const char* tile) {
+    setenv("LRF_WINOGRAD_TILE", tile, 1);
+    auto ae = make_taef2();
+    ae->set_precision(Precision::bf16);
+    ae->decode(ae->encode(x));
+    return ae;
+  };
+  auto two = built_with("2"), three = built_with("3");
+  if (before) {
+    setenv("LRF_WINOGRAD_TILE", kept.c_str(), 1);
+  } else {
+    unsetenv("LRF_WINOGRAD_TILE");
+  }
+  const at::Tensor z = two->encode(x);
+  alternate("decode", reps, taef2_decode_flops(kWidth, kHeight), "2x2", "3x3",
+            [&](bool by_three) { (by_three ? three : two)->decode(z); });
+  alternate("encode", reps, taef2_encode_flops(kWidth, kHeight), "2x2", "3x3",
+            [&](bool by_three) { (by_three ? three : two)->encode(x); });
+}
+
 // What the explicit casts of the fp32 master weights to bf16 cost in one step: casting every weight of
 // the model once (the alternative, a bf16 copy refreshed after each Adam step, casts each once per step
 // too, so this bounds what it could save).
@@ -453,8 +486,8 @@ int main(int argc, char** argv) {
       cases.insert(argv[i]);
     }
   }
-  const std::set<std::string> known = {"conv",     "bounds", "wgrad",  "encode",  "decode", "fused",
-                                       "backward", "stage1", "stage3", "quality", "kl"};
+  const std::set<std::string> known = {"conv",     "bounds", "wgrad",  "tiles",   "encode", "decode",
+                                       "fused",    "backward", "stage1", "stage3", "quality", "kl"};
   for (const auto& c : cases) {
     if (!known.count(c)) {
       std::string names;
@@ -463,7 +496,9 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (cases.empty()) cases = {"conv", "bounds", "wgrad", "encode", "decode", "backward", "stage1", "stage3", "quality"};
+  if (cases.empty()) {
+    cases = {"conv", "bounds", "wgrad", "tiles", "encode", "decode", "backward", "stage1", "stage3", "quality"};
+  }
   lrf::set_thread_count(threads);
   double load[3] = {0, 0, 0};
   if (getloadavg(load, 3) > 0) std::printf("load average at start: %.2f; %d threads; %d repetitions\n", load[0], threads, reps);
@@ -472,6 +507,7 @@ int main(int argc, char** argv) {
     if (cases.count("conv")) bench_conv(reps);
     if (cases.count("bounds")) bench_bounds(reps);
     if (cases.count("wgrad")) bench_weight_gradient(reps);
+    if (cases.count("tiles")) bench_tiles(reps);
     if (cases.count("encode") || cases.count("decode") || cases.count("fused") || cases.count("backward") || cases.count("quality")) {
       auto ae = make_taef2();
       bench_taef2(*ae, cases, reps);

@@ -140,6 +140,10 @@ RelativeError relative_error(const at::Tensor& got, const at::Tensor& want) {
 // (0.78 %) and 2^-5 of the largest value bound that with margin; one wrong transform coefficient or a
 // misplaced tile gives errors the size of the values themselves.
 constexpr double kWinogradRms = 1.0 / 128, kWinogradMax = 1.0 / 32;
+// F(3x3, 3x3)'s transforms have coefficients up to 8/3 and its output transform adds 25 products with more
+// cancellation: measured 1.26 % rms and 2.4 % of the largest value on the 3x3 test below (a float64
+// simulation of its roundings predicted 1.45 %); 2^-5 and 2^-4 bound that by ~2.5x.
+constexpr double kWinograd3Rms = 1.0 / 32, kWinograd3Max = 1.0 / 16;
 
 // What each Winograd test convolves: a bf16 channels-last input of `shape` = [N, I, H, W], weights of a
 // trained layer's scale [outputs, I, 3, 3] and a bias, drawn from `seed`.
@@ -187,14 +191,51 @@ TEST(WinogradConv3x3, MatchesAFloat64LoopWithinBf16Rounding) {
   EXPECT_LT(e.rms, kWinogradRms);
 }
 
+TEST(WinogradConv3x3, With3x3TilesMatchesAFloat64Loop) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
+  // 40 columns: 14 tiles, a full unit of 12 and one of 2 whose last tile has one column; 10 rows: a last
+  // tile row of one.
+  const WinogradCase c = winograd_case(14, {2, 64, 10, 40}, 128);
+  const at::Tensor &x16 = c.x16, &w = c.w, &b = c.b;
+  const lrf::WinogradConv3x3 conv(w, b, false, lrf::WinogradConv3x3::Tiles::f3x3);
+  const at::Tensor r16 = channels_last(torch::randn({2, 128, 10, 40}).to(at::kBFloat16));
+  at::Tensor into = r16.clone(at::MemoryFormat::ChannelsLast);
+  const at::Tensor y = conv.forward(x16, true, into);
+  ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, 128, 10, 40}));
+  EXPECT_TRUE(y.is_same(into));
+  const at::Tensor want = reference_conv(x16.to(at::kFloat), w, b, 1, 1, r16.to(at::kFloat), true);
+  const RelativeError e = relative_error(y, want);
+  EXPECT_LT(e.rms, kWinograd3Rms);
+  EXPECT_LT(e.max, kWinograd3Max);
+  EXPECT_GT(want.eq(0).sum().item<int64_t>(), 0);
+  // A single pixel: one tile whose 24 other taps are all padding.
+  const at::Tensor dot16 = channels_last(torch::randn({1, 64, 1, 1}).to(at::kBFloat16));
+  EXPECT_LT(relative_error(conv.forward(dot16, false), reference_conv(dot16.to(at::kFloat), w, b, 1, 1, {}, false)).rms,
+            kWinograd3Rms);
+  // An upsampled input has 2x2 tiles only.
+  EXPECT_NE(lrf::test::error_of([&] { lrf::WinogradConv3x3(w, b, true, lrf::WinogradConv3x3::Tiles::f3x3); })
+                .find("2x2 tiles only"),
+            std::string::npos);
+}
+
 TEST(WinogradConv3x3, FusedConv2dTakesItWhereTheCpuHasBf16AndOneDnnElsewhere) {
   if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
   const WinogradCase c = winograd_case(12, {1, 64, 10, 14}, 64);
   const at::Tensor &x16 = c.x16, &w = c.w, &b = c.b;
   const lrf::FusedConv2d fused(w, b, 1, 1);
-  const lrf::WinogradConv3x3 winograd(w, b);
+  const lrf::WinogradConv3x3 winograd(w, b, false, lrf::WinogradConv3x3::Tiles::f3x3);
   const at::Tensor by_winograd = winograd.forward(x16, true);
   EXPECT_TRUE(torch::equal(fused.forward(x16, true), by_winograd));
+  {
+    // $LRF_WINOGRAD_TILE=2 builds layers with 2x2 tiles, whose roundings differ; other values are refused.
+    lrf::test::ScopedEnv two("LRF_WINOGRAD_TILE", "2");
+    const at::Tensor by_2x2 = lrf::FusedConv2d(w, b, 1, 1).forward(x16, true);
+    EXPECT_TRUE(torch::equal(by_2x2, lrf::WinogradConv3x3(w, b).forward(x16, true)));
+    EXPECT_FALSE(torch::equal(by_2x2, by_winograd));
+    lrf::test::ScopedEnv four("LRF_WINOGRAD_TILE", "4");
+    EXPECT_NE(lrf::test::error_of([&] { lrf::FusedConv2d(w, b, 1, 1); }).find("LRF_WINOGRAD_TILE must be 2 or 3"),
+              std::string::npos);
+  }
   // fp32 inputs stay on oneDNN's direct convolution.
   const at::Tensor x = x16.to(at::kFloat);
   EXPECT_LT(max_abs(fused.forward(x, true), reference_conv(x, w, b, 1, 1, {}, true)), 1e-4);

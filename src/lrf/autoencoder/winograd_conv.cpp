@@ -36,9 +36,10 @@ using bf16_vectors::store32;
 struct Geometry {
   int64_t n, in_h, in_w, out_h, out_w, inputs, outputs;
   bool upsampled;  // the input is upsampled 2x (nearest) before the convolution
+  int tile;        // outputs per tile side: 2, or 3 for F(3x3, 3x3)
   int64_t tiles_y, tiles_x, units_per_row;
-  // Products per tile: 16, or 9 when upsampled.
-  int positions() const { return upsampled ? 9 : 16; }
+  // Products per tile: (tile + 2)², or 9 when upsampled.
+  int positions() const { return upsampled ? 9 : (tile + 2) * (tile + 2); }
 };
 
 // V = Bᵀ d B for the unit's tiles: v[p][t][k], p = 4 * row + column. 32 input channels are loaded at a
@@ -103,6 +104,61 @@ LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int
           }
         }
         for (int jj = 0; jj < kRows; ++jj) store32(out + (kRows * i + jj) * stride, q[jj][0], q[jj][1]);
+      }
+    }
+  }
+}
+
+// Bᵀ d of F(3x3, 3x3) over the points 0, 1, -1, ½ and ∞ for one column (row) of five: Bᵀ's rows are
+// (½, -1, -½, 1, 0), (0, -½, ½, 1, 0), (0, ½, -3/2, 1, 0), (0, -1, 0, 1, 0), (0, ½, -1, -½, 1), which share
+// d2 - d1 and d3 - d1. Of the point sets with these five-term transforms, this one measured the least
+// bf16 rounding error (README, Speed).
+LRF_AVX512_BF16 inline void input_transform3(const __m512 d[5], __m512 r[5]) {
+  const __m512 half = _mm512_set1_ps(0.5f);
+  const __m512 a = _mm512_sub_ps(d[2], d[1]), b = _mm512_sub_ps(d[3], d[1]);
+  r[0] = _mm512_fmadd_ps(half, _mm512_sub_ps(d[0], d[2]), b);
+  r[1] = _mm512_fmadd_ps(half, a, d[3]);
+  r[2] = _mm512_fnmadd_ps(half, a, _mm512_sub_ps(d[3], d[2]));
+  r[3] = b;
+  r[4] = _mm512_fnmadd_ps(half, b, _mm512_sub_ps(d[4], d[2]));
+}
+
+// transform_inputs for F(3x3, 3x3): 3x3 output tiles, whose 5x5 input patches overlap their neighbours'
+// by two columns (and rows); 25 positions, p = 5 * row + column.
+LRF_AVX512_BF16 void transform_inputs3(const Geometry& g, const uint16_t* in, int64_t image, int64_t ty, int64_t tx0,
+                                       int tiles, uint16_t* v) {
+  const __m512 zero = _mm512_setzero_ps();
+  const int64_t x_first = 3 * tx0 - 1, y0 = 3 * ty - 1;
+  const int columns = 3 * tiles + 2;
+  bool row_inside[5];
+  for (int i = 0; i < 5; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.in_h;
+  const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.inputs;
+  __m512 r[3 * kTilesPerUnit + 2][2][5];  // [column][even, odd channels][row of Bᵀ d]
+  for (int64_t c = 0; c < g.inputs; c += 32) {
+    for (int j = 0; j < columns; ++j) {
+      const int64_t x = x_first + j;
+      __m512 d[2][5];
+      for (int i = 0; i < 5; ++i) {
+        if (row_inside[i] && x >= 0 && x < g.in_w) {
+          __m512 halves[2];
+          load32_split(in + ((image * g.in_h + y0 + i) * g.in_w + x) * g.inputs + c, halves);
+          d[0][i] = halves[0], d[1][i] = halves[1];
+        } else {
+          d[0][i] = d[1][i] = zero;
+        }
+      }
+      for (int e = 0; e < 2; ++e) input_transform3(d[e], r[j][e]);
+    }
+    for (int t = 0; t < tiles; ++t) {
+      const __m512(*col)[2][5] = r + 3 * t;
+      uint16_t* out = v + t * g.inputs + c;
+      for (int i = 0; i < 5; ++i) {
+        __m512 q[2][5];
+        for (int e = 0; e < 2; ++e) {
+          const __m512 row[5] = {col[0][e][i], col[1][e][i], col[2][e][i], col[3][e][i], col[4][e][i]};
+          input_transform3(row, q[e]);
+        }
+        for (int jj = 0; jj < 5; ++jj) store32(out + (5 * i + jj) * stride, q[0][jj], q[1][jj]);
       }
     }
   }
@@ -203,6 +259,60 @@ LRF_AVX512_BF16 void transform_outputs(const Geometry& g, const float* m, const 
   }
 }
 
+// Aᵀ m of F(3x3, 3x3) for one column (row) of five: Aᵀ's rows are (1, 1, 1, 1, 0), (0, 1, -1, ½, 0),
+// (0, 1, 1, ¼, 1).
+LRF_AVX512_BF16 inline void output_transform3(const __m512 m[5], __m512 s[3]) {
+  const __m512 p = _mm512_add_ps(m[1], m[2]), q = _mm512_sub_ps(m[1], m[2]);
+  s[0] = _mm512_add_ps(_mm512_add_ps(m[0], p), m[3]);
+  s[1] = _mm512_fmadd_ps(_mm512_set1_ps(0.5f), m[3], q);
+  s[2] = _mm512_add_ps(_mm512_fmadd_ps(_mm512_set1_ps(0.25f), m[3], p), m[4]);
+}
+
+// transform_outputs for F(3x3, 3x3).
+LRF_AVX512_BF16 void transform_outputs3(const Geometry& g, const float* m, const float* bias, bool relu,
+                                        const uint16_t* residual, uint16_t* out, int64_t image, int64_t ty,
+                                        int64_t tx0, int tiles) {
+  const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.outputs;
+  const __m512 zero = _mm512_setzero_ps();
+  for (int t = 0; t < tiles; ++t) {
+    for (int64_t c = 0; c < g.outputs; c += 32) {
+      __m512 y[3][3][2];  // [row][column][16 outputs]
+      for (int h = 0; h < 2; ++h) {
+        const float* src = m + t * g.outputs + c + 16 * h;
+        const __m512 b = _mm512_loadu_ps(bias + c + 16 * h);
+        __m512 s[3][5];  // Aᵀ M: [row][column]
+        for (int j = 0; j < 5; ++j) {
+          __m512 column[5], rows[3];
+          for (int i = 0; i < 5; ++i) column[i] = _mm512_loadu_ps(src + (5 * i + j) * stride);
+          output_transform3(column, rows);
+          for (int a = 0; a < 3; ++a) s[a][j] = rows[a];
+        }
+        for (int a = 0; a < 3; ++a) {
+          __m512 row[3];
+          output_transform3(s[a], row);
+          for (int e = 0; e < 3; ++e) y[a][e][h] = _mm512_add_ps(row[e], b);
+        }
+      }
+      for (int a = 0; a < 3; ++a) {
+        const int64_t row = 3 * ty + a;
+        if (row >= g.out_h) break;
+        for (int e = 0; e < 3; ++e) {
+          const int64_t x = 3 * (tx0 + t) + e;
+          if (x >= g.out_w) break;
+          const int64_t at = ((image * g.out_h + row) * g.out_w + x) * g.outputs + c;
+          __m512 low = y[a][e][0], high = y[a][e][1];
+          if (residual) {
+            low = _mm512_add_ps(low, load16(residual + at));
+            high = _mm512_add_ps(high, load16(residual + at + 16));
+          }
+          if (relu) low = _mm512_maskz_max_ps(kAll, low, zero), high = _mm512_maskz_max_ps(kAll, high, zero);
+          store32(out + at, low, high);
+        }
+      }
+    }
+  }
+}
+
 LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* kernels, const float* bias, bool relu,
                          const uint16_t* residual, uint16_t* out) {
   const int64_t units = g.n * g.tiles_y * g.units_per_row;
@@ -215,7 +325,9 @@ LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* 
       const int64_t ty = unit / g.units_per_row % g.tiles_y;
       const int64_t tx0 = unit % g.units_per_row * kTilesPerUnit;
       const int tiles = static_cast<int>(std::min<int64_t>(kTilesPerUnit, g.tiles_x - tx0));
-      if (g.upsampled) {
+      if (g.tile == 3) {
+        transform_inputs3(g, in, image, ty, tx0, tiles, v.data());
+      } else if (g.upsampled) {
         transform_inputs<true>(g, in, image, ty, tx0, tiles, v.data());
       } else {
         transform_inputs<false>(g, in, image, ty, tx0, tiles, v.data());
@@ -228,7 +340,9 @@ LRF_AVX512_BF16 void run(const Geometry& g, const uint16_t* in, const uint16_t* 
                         g.outputs, mp + t * g.outputs);
         }
       }
-      if (g.upsampled) {
+      if (g.tile == 3) {
+        transform_outputs3(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
+      } else if (g.upsampled) {
         transform_outputs<true>(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
       } else {
         transform_outputs<false>(g, m.data(), bias, relu, residual, out, image, ty, tx0, tiles);
@@ -254,8 +368,9 @@ bool WinogradConv3x3::available() {
 #endif
 }
 
-WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input)
-    : upsampled_(upsampled_input) {
+WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input, Tiles tiles)
+    : upsampled_(upsampled_input), tile_(tiles == Tiles::f3x3 ? 3 : 2) {
+  if (upsampled_ && tile_ != 2) fail("WinogradConv3x3: an upsampled input takes 2x2 tiles only");
   if (weight.dim() != 4 || weight.size(2) != 3 || weight.size(3) != 3) {
     fail("WinogradConv3x3: weight must be [O, I, 3, 3], got " + shape_of(weight));
   }
@@ -264,22 +379,26 @@ WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bia
     fail("WinogradConv3x3: needs a multiple of 64 outputs and of 32 inputs, got " + shape_of(weight));
   }
   // U = G g Gᵀ in float64, rounded once to bf16 (through float32); upsampled, only rows and columns 0, 1,
-  // 3, with the factor 2 of the input transform's row (column) 1. The training passes transform their
+  // 3, with the factor 2 of the input transform's row (column) 1. G is F(2x2)'s, or F(3x3)'s for the
+  // points 0, 1, -1, ½, ∞ (input_transform3). The training passes transform their
   // weights on every call, so the loops run over the outputs (contiguous, vectorised) for each input,
   // inputs spread over the threads.
   const at::Tensor w = weight.detach().to(at::kDouble).permute({1, 2, 3, 0}).contiguous();  // [I, 3, 3, O]
   const double* src = w.data_ptr<double>();
-  constexpr double G[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
-  const int side = upsampled_ ? 3 : 4;
+  constexpr double G2[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 0, 1}};
+  constexpr double G3[5][3] = {
+      {2, 0, 0}, {1, 1, 1}, {-1.0 / 3, 1.0 / 3, -1.0 / 3}, {-8.0 / 3, -4.0 / 3, -2.0 / 3}, {0, 0, 1}};
+  const double(*G)[3] = tile_ == 3 ? G3 : G2;
+  const int rows = tile_ + 2, side = upsampled_ ? 3 : rows;
   constexpr int kUpsampledRow[3] = {0, 1, 3};
   kernels_.assign(static_cast<size_t>(side * side * inputs_ * outputs_), 0);
   const int64_t o_count = outputs_, i_count = inputs_;
   uint16_t* kernels = kernels_.data();
   at::parallel_for(0, inputs_, 8, [&](int64_t i0, int64_t i1) {
-    std::vector<double> gk(static_cast<size_t>(12 * o_count));  // G g: [row r][kernel column c][O]
+    std::vector<double> gk(static_cast<size_t>(3 * rows * o_count));  // G g: [row r][kernel column c][O]
     for (int64_t i = i0; i < i1; ++i) {
       const double* k = src + i * 9 * o_count;  // k[(3 * row + column) * O + o]
-      for (int r = 0; r < 4; ++r)
+      for (int r = 0; r < rows; ++r)
         for (int c = 0; c < 3; ++c) {
           double* out = gk.data() + (r * 3 + c) * o_count;
           const double* k0 = k + c * o_count;
@@ -326,8 +445,8 @@ at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at
   at::Tensor out = conv_destination("WinogradConv3x3", x, residual, {n, outputs_, out_h, out_w});
   if (x.numel() == 0) return out;
 #if defined(__x86_64__)
-  const int64_t tiles_y = upsampled_ ? h : (h + 1) / 2, tiles_x = upsampled_ ? w : (w + 1) / 2;
-  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, tiles_y, tiles_x, 0};
+  const int64_t tiles_y = upsampled_ ? h : (h + tile_ - 1) / tile_, tiles_x = upsampled_ ? w : (w + tile_ - 1) / tile_;
+  Geometry g{n, h, w, out_h, out_w, inputs_, outputs_, upsampled_, tile_, tiles_y, tiles_x, 0};
   g.units_per_row = (g.tiles_x + kTilesPerUnit - 1) / kTilesPerUnit;
   const auto* in = reinterpret_cast<const uint16_t*>(x.data_ptr());
   auto* dst = reinterpret_cast<uint16_t*>(out.data_ptr());

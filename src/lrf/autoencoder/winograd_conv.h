@@ -24,10 +24,16 @@ class WinogradConv3x3 {
   // (winograd_enabled(), cpu_features.h).
   static bool available();
 
+  // Output tiles: F(2x2, 3x3) takes 16 products per 4 outputs; F(3x3, 3x3) takes 25 per 9 (0.69x as many
+  // per output) at about 3x the rounding error, which the decoded images still absorb (README, Speed).
+  enum class Tiles { f2x2, f3x3 };
+
   // weight [O, I, 3, 3], bias [O] or undefined (any dtype and layout; copied). `upsampled_input`: the
   // convolution of the input upsampled 2x (nearest), computed from the input itself with 9 products per
-  // 2x2 outputs instead of 16, since the upsampled 4x4 patches repeat their middle rows and columns.
-  WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input = false);
+  // 2x2 outputs instead of 16, since the upsampled 4x4 patches repeat their middle rows and columns
+  // (2x2 tiles only).
+  WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input = false,
+                  Tiles tiles = Tiles::f2x2);
 
   // input [N, I, H, W] bf16 -> [N, O, H, W] (upsampled: [N, O, 2H, 2W]) bf16 channels-last: conv + bias,
   // then + `residual` when defined, then the ReLU when `relu`. A defined residual must be channels-last
@@ -38,8 +44,9 @@ class WinogradConv3x3 {
  private:
   int64_t outputs_ = 0, inputs_ = 0;
   bool upsampled_ = false;
+  int tile_ = 2;  // outputs per tile side
   // bf16 [16 positions][I / 2][O][2]: transformed, in pairs of inputs, each 32 inputs ordered evens first
-  // (9 positions, rows and columns 0, 1, 3, when upsampled)
+  // (25 positions with 3x3 tiles; 9, rows and columns 0, 1, 3, when upsampled)
   std::vector<uint16_t> kernels_;
   std::vector<float> bias_;        // [O], zeros for a layer without bias
 };

@@ -87,6 +87,15 @@ bool fused_conv_enabled() { return !switched_off("LRF_FUSED_CONV"); }
 
 bool winograd_enabled() { return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && cpu_has_avx512_bf16(); }
 
+int winograd_inference_tile() {
+  const char* v = std::getenv("LRF_WINOGRAD_TILE");
+  if (!v || !*v) return 3;
+  const std::string tile = v;
+  if (tile == "2") return 2;
+  if (tile == "3") return 3;
+  fail("LRF_WINOGRAD_TILE must be 2 or 3, got '" + tile + "'");
+}
+
 bool cpu_has_avx2() {
 #if defined(__x86_64__) || defined(__i386__)
   static const bool has = [] {

@@ -27,6 +27,10 @@ bool fused_conv_enabled();
 // all of the project's own convolution kernels), and $LRF_WINOGRAD is not 0. Read on every call.
 bool winograd_enabled();
 
+// The output tile side of Winograd inference (FusedConv2d): 3, F(3x3, 3x3), unless $LRF_WINOGRAD_TILE is
+// 2, the F(2x2, 3x3) that training runs (kept to compare against). Read when a layer is built.
+int winograd_inference_tile();
+
 // Whether the CPU runs AVX2 (8-lane float vectors), for the loops compiled for it beside the baseline
 // ones: the rasterizer's kernels and Adam's update. Asked once; every x86-64 CPU of the last decade has it.
 bool cpu_has_avx2();
