@@ -185,12 +185,22 @@ TEST(Precision, LatentCacheKeyDiffersBetweenPrecisions) {
   EXPECT_FALSE(torch::equal(a.latents[0], b.latents[0]));
   // bf16 through oneDNN's direct convolution is a third entry where bf16 ran Winograd's.
   if (!lrf::winograd_enabled()) return;
-  ScopedEnv direct("LRF_WINOGRAD", "0");
-  auto c = lrf::encode_views_cached(scene, {0, 1}, *ae, id, dir.str());
-  EXPECT_FALSE(c.hit);
-  EXPECT_NE(c.path, b.path);
-  EXPECT_NE(c.path, a.path);
-  EXPECT_FALSE(torch::equal(b.latents[0], c.latents[0]));
+  {
+    ScopedEnv direct("LRF_WINOGRAD", "0");
+    auto c = lrf::encode_views_cached(scene, {0, 1}, *ae, id, dir.str());
+    EXPECT_FALSE(c.hit);
+    EXPECT_NE(c.path, b.path);
+    EXPECT_NE(c.path, a.path);
+    EXPECT_FALSE(torch::equal(b.latents[0], c.latents[0]));
+  }
+  // Winograd's 2x2 tiles a fourth (layers are built on first use, so under the setting: a new autoencoder).
+  ScopedEnv two("LRF_WINOGRAD_TILE", "2");
+  auto ae2 = lrf::load_autoencoder(taef2());
+  ae2->set_precision(Precision::bf16);
+  auto d = lrf::encode_views_cached(scene, {0, 1}, *ae2, id, dir.str());
+  EXPECT_FALSE(d.hit);
+  EXPECT_NE(d.path, b.path);
+  EXPECT_FALSE(torch::equal(b.latents[0], d.latents[0]));
 }
 
 // Tolerances below. bf16 keeps 8 significant bits (relative rounding up to 2^-9 = 0.2 %) on every

@@ -1,14 +1,15 @@
 #pragma once
 // A 3x3 convolution (stride 1, zero padding 1) of bf16 channels-last images by Winograd's F(2x2, 3x3):
 // each 2x2 block of outputs is 16 products of transformed 4x4 input patches with transformed kernels,
-// where the direct convolution needs 36, so 4/9 of the multiply-adds. The transforms are sums and
-// differences done in float32 on 32 channels at a time; the products are AVX512_BF16 dot products of
-// bf16 pairs accumulated in float32, as oneDNN's bf16 direct convolution does. Input transform, the 16
-// matrix products and output transform run on a dozen tiles at a time, so that everything in between
-// stays in the core's caches.
+// where the direct convolution needs 36, so 4/9 of the multiply-adds; or by F(3x3, 3x3), 25 products of
+// 5x5 patches per 3x3 block, 25/81. The transforms are done in float32 on 32 channels at a time; the
+// products are AVX512_BF16 dot products of bf16 pairs accumulated in float32, as oneDNN's bf16 direct
+// convolution does. Input transform, the matrix products and output transform run on a dozen tiles at a
+// time, so that everything in between stays in the core's caches.
 // Accuracy: the transformed inputs and kernels are rounded to bf16 instead of the inputs and kernels
-// themselves; the output transform adds up to 9 such products per output, so the error is a small
-// multiple of the direct bf16 convolution's (test_winograd_conv measures both against float64).
+// themselves, and the output transform adds up 16 (25) such products per output with cancellation, so
+// the error is a small multiple of the direct bf16 convolution's: ~2.5x with 2x2 tiles, ~7x with 3x3
+// tiles (test_fused_conv measures them against float64).
 #include <cstdint>
 #include <vector>
 

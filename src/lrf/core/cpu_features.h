@@ -22,9 +22,10 @@ bool cpu_has_avx512_bf16();
 // misbehave). Read on every call, so that a test can switch it.
 bool fused_conv_enabled();
 
-// Whether bf16 inference and training may run 3x3 convolutions as Winograd's F(2x2, 3x3)
-// (winograd_conv.h, winograd_training.h): cpu_has_avx512_bf16(), fused_conv_enabled() (which switches
-// all of the project's own convolution kernels), and $LRF_WINOGRAD is not 0. Read on every call.
+// Whether bf16 inference and training may run 3x3 convolutions as Winograd's, F(3x3, 3x3) in inference and
+// F(2x2, 3x3) in training (winograd_conv.h, winograd_training.h): cpu_has_avx512_bf16(),
+// fused_conv_enabled() (which switches all of the project's own convolution kernels), and $LRF_WINOGRAD
+// is not 0. Read on every call.
 bool winograd_enabled();
 
 // The output tile side of Winograd inference (FusedConv2d): 3, F(3x3, 3x3), unless $LRF_WINOGRAD_TILE is

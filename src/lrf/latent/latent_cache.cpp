@@ -34,7 +34,11 @@ LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>
   key << "lrf-latents-v2;scene=" << fs::absolute(scene.root).lexically_normal().string() << ";ae=" << ae_identity
       << ";precision=" << precision_name(ae.precision());  // bf16 encodes differ from fp32 ones by rounding
   // ... and bf16 ones through Winograd's convolution from those through the direct one.
-  if (ae.precision() == Precision::bf16 && winograd_enabled()) key << ";convolution=winograd-f2x2-3x3";
+  if (ae.precision() == Precision::bf16 && winograd_enabled()) {
+    // (its tiles round differently: F(2x2, 3x3) was the only one before the key named the tile)
+    const int tile = winograd_inference_tile();
+    key << ";convolution=winograd-f" << tile << "x" << tile << "-3x3";
+  }
   for (int i : indices) {
     const View& v = scene.views.at(static_cast<size_t>(i));
     if (v.camera.width % 8 || v.camera.height % 8) {
