@@ -46,5 +46,10 @@ LRF_AVX512_BF16 inline void store32(uint16_t* p, __m512 low, __m512 high) {
   _mm512_storeu_si512(p, reinterpret_cast<__m512i>(_mm512_cvtne2ps_pbh(high, low)));
 }
 
+// Rounds 16 floats to bf16 (nearest, ties to even) and stores them.
+LRF_AVX512_BF16 inline void store16(uint16_t* p, __m512 v) {
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(p), reinterpret_cast<__m256i>(_mm512_cvtneps_pbh(v)));
+}
+
 }  // namespace lrf::bf16_vectors
 #endif

@@ -31,6 +31,7 @@ constexpr int kTilesPerPass = 6;   // tiles whose 64 outputs are accumulated in 
 using bf16_vectors::kAll;
 using bf16_vectors::load16;
 using bf16_vectors::load32_split;
+using bf16_vectors::store16;
 using bf16_vectors::store32;
 
 struct Geometry {
@@ -61,7 +62,10 @@ LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int
   bool row_inside[kRows];
   for (int i = 0; i < kRows; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.in_h;
   const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.inputs;
-  __m512 r[2 * kTilesPerUnit + 2][4][2];  // [column][row of Bᵀ d][even, odd channels]
+  // The last kRows columns' Bᵀ d, [column % kRows][row][even, odd channels]: each tile is transformed
+  // across as soon as its last column is in, while its columns are still in registers or L1.
+  constexpr int kStep = Upsampled ? 1 : 2;  // columns from one tile to the next
+  __m512 r[kRows][4][2];
   for (int64_t c = 0; c < g.inputs; c += 32) {
     for (int j = 0; j < columns; ++j) {
       const int64_t x = x_first + j;
@@ -73,21 +77,23 @@ LRF_AVX512_BF16 void transform_inputs(const Geometry& g, const uint16_t* in, int
           d[i][0] = d[i][1] = zero;
         }
       }
+      __m512(*rj)[2] = r[j % kRows];
       for (int e = 0; e < 2; ++e) {
         if constexpr (Upsampled) {
-          r[j][0][e] = _mm512_sub_ps(d[0][e], d[1][e]);
-          r[j][1][e] = d[1][e];
-          r[j][2][e] = _mm512_sub_ps(d[1][e], d[2][e]);
+          rj[0][e] = _mm512_sub_ps(d[0][e], d[1][e]);
+          rj[1][e] = d[1][e];
+          rj[2][e] = _mm512_sub_ps(d[1][e], d[2][e]);
         } else {
-          r[j][0][e] = _mm512_sub_ps(d[0][e], d[2][e]);
-          r[j][1][e] = _mm512_add_ps(d[1][e], d[2][e]);
-          r[j][2][e] = _mm512_sub_ps(d[2][e], d[1][e]);
-          r[j][3][e] = _mm512_sub_ps(d[1][e], d[3][e]);
+          rj[0][e] = _mm512_sub_ps(d[0][e], d[2][e]);
+          rj[1][e] = _mm512_add_ps(d[1][e], d[2][e]);
+          rj[2][e] = _mm512_sub_ps(d[2][e], d[1][e]);
+          rj[3][e] = _mm512_sub_ps(d[1][e], d[3][e]);
         }
       }
-    }
-    for (int t = 0; t < tiles; ++t) {
-      const __m512(*col)[4][2] = r + (Upsampled ? t : 2 * t);
+      if (j < kRows - 1 || (j - (kRows - 1)) % kStep != 0) continue;
+      const int t = (j - (kRows - 1)) / kStep;  // columns kStep t .. kStep t + kRows - 1 are in
+      const __m512(*col[kRows])[2];
+      for (int k = 0; k < kRows; ++k) col[k] = r[(kStep * t + k) % kRows];
       uint16_t* out = v + t * g.inputs + c;
       for (int i = 0; i < kRows; ++i) {
         __m512 q[4][2];
@@ -133,7 +139,9 @@ LRF_AVX512_BF16 void transform_inputs3(const Geometry& g, const uint16_t* in, in
   bool row_inside[5];
   for (int i = 0; i < 5; ++i) row_inside[i] = y0 + i >= 0 && y0 + i < g.in_h;
   const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.inputs;
-  __m512 r[3 * kTilesPerUnit + 2][2][5];  // [column][even, odd channels][row of Bᵀ d]
+  // The last five columns' Bᵀ d, [column % 5][even, odd channels][row]: each tile is transformed across as
+  // soon as its last column is in, while its columns are still in registers or L1.
+  __m512 r[5][2][5];
   for (int64_t c = 0; c < g.inputs; c += 32) {
     for (int j = 0; j < columns; ++j) {
       const int64_t x = x_first + j;
@@ -147,15 +155,15 @@ LRF_AVX512_BF16 void transform_inputs3(const Geometry& g, const uint16_t* in, in
           d[0][i] = d[1][i] = zero;
         }
       }
-      for (int e = 0; e < 2; ++e) input_transform3(d[e], r[j][e]);
-    }
-    for (int t = 0; t < tiles; ++t) {
-      const __m512(*col)[2][5] = r + 3 * t;
+      for (int e = 0; e < 2; ++e) input_transform3(d[e], r[j % 5][e]);
+      if (j < 4 || (j - 4) % 3 != 0) continue;
+      const int t = (j - 4) / 3;  // columns 3t .. 3t + 4 are in
       uint16_t* out = v + t * g.inputs + c;
       for (int i = 0; i < 5; ++i) {
         __m512 q[2][5];
         for (int e = 0; e < 2; ++e) {
-          const __m512 row[5] = {col[0][e][i], col[1][e][i], col[2][e][i], col[3][e][i], col[4][e][i]};
+          __m512 row[5];
+          for (int k = 0; k < 5; ++k) row[k] = r[(3 * t + k) % 5][e][i];
           input_transform3(row, q[e]);
         }
         for (int jj = 0; jj < 5; ++jj) store32(out + (5 * i + jj) * stride, q[0][jj], q[1][jj]);
@@ -268,45 +276,37 @@ LRF_AVX512_BF16 inline void output_transform3(const __m512 m[5], __m512 s[3]) {
   s[2] = _mm512_add_ps(_mm512_fmadd_ps(_mm512_set1_ps(0.25f), m[3], p), m[4]);
 }
 
-// transform_outputs for F(3x3, 3x3).
+// transform_outputs for F(3x3, 3x3), 16 outputs at a time (32 would not fit the registers: 15 partial
+// sums and 18 results).
 LRF_AVX512_BF16 void transform_outputs3(const Geometry& g, const float* m, const float* bias, bool relu,
                                         const uint16_t* residual, uint16_t* out, int64_t image, int64_t ty,
                                         int64_t tx0, int tiles) {
   const int64_t stride = static_cast<int64_t>(kTilesPerUnit) * g.outputs;
   const __m512 zero = _mm512_setzero_ps();
   for (int t = 0; t < tiles; ++t) {
-    for (int64_t c = 0; c < g.outputs; c += 32) {
-      __m512 y[3][3][2];  // [row][column][16 outputs]
-      for (int h = 0; h < 2; ++h) {
-        const float* src = m + t * g.outputs + c + 16 * h;
-        const __m512 b = _mm512_loadu_ps(bias + c + 16 * h);
-        __m512 s[3][5];  // Aᵀ M: [row][column]
-        for (int j = 0; j < 5; ++j) {
-          __m512 column[5], rows[3];
-          for (int i = 0; i < 5; ++i) column[i] = _mm512_loadu_ps(src + (5 * i + j) * stride);
-          output_transform3(column, rows);
-          for (int a = 0; a < 3; ++a) s[a][j] = rows[a];
-        }
-        for (int a = 0; a < 3; ++a) {
-          __m512 row[3];
-          output_transform3(s[a], row);
-          for (int e = 0; e < 3; ++e) y[a][e][h] = _mm512_add_ps(row[e], b);
-        }
+    for (int64_t c = 0; c < g.outputs; c += 16) {
+      const float* src = m + t * g.outputs + c;
+      __m512 s[3][5];  // Aᵀ M: [row][column]
+      for (int j = 0; j < 5; ++j) {
+        __m512 column[5], rows[3];
+        for (int i = 0; i < 5; ++i) column[i] = _mm512_loadu_ps(src + (5 * i + j) * stride);
+        output_transform3(column, rows);
+        for (int a = 0; a < 3; ++a) s[a][j] = rows[a];
       }
+      const __m512 b = _mm512_loadu_ps(bias + c);
       for (int a = 0; a < 3; ++a) {
         const int64_t row = 3 * ty + a;
         if (row >= g.out_h) break;
+        __m512 y[3];
+        output_transform3(s[a], y);
         for (int e = 0; e < 3; ++e) {
           const int64_t x = 3 * (tx0 + t) + e;
           if (x >= g.out_w) break;
           const int64_t at = ((image * g.out_h + row) * g.out_w + x) * g.outputs + c;
-          __m512 low = y[a][e][0], high = y[a][e][1];
-          if (residual) {
-            low = _mm512_add_ps(low, load16(residual + at));
-            high = _mm512_add_ps(high, load16(residual + at + 16));
-          }
-          if (relu) low = _mm512_maskz_max_ps(kAll, low, zero), high = _mm512_maskz_max_ps(kAll, high, zero);
-          store32(out + at, low, high);
+          __m512 sum = _mm512_add_ps(y[e], b);
+          if (residual) sum = _mm512_add_ps(sum, load16(residual + at));
+          if (relu) sum = _mm512_maskz_max_ps(kAll, sum, zero);
+          store16(out + at, sum);
         }
       }
     }
