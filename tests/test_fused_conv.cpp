@@ -3,6 +3,7 @@
 // torch modules, in fp32 and bf16, including weights that change after the first call.
 #include <cmath>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -297,10 +298,22 @@ lrf::MixedConv2d layer_of(const WinogradCase& c) {
 // Training in bf16 (winograd_training.h): MixedConv2d's forward, input, weight and bias gradients
 // through Winograd, against float64. The upstream gradient is rounded to bf16 first, as a bf16 layer's
 // backward rounds it, so what remains is the roundings the forward test bounds (the input gradient is
-// the same Winograd convolution, of the transposed kernels; the weight and bias gradients are bounded
-// the same way in WinogradWeightGradient below): kWinogradRms and kWinogradMax hold for all four.
-TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
-  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+// the same Winograd convolution, of the transposed kernels; the weight and bias gradients, 2x2 tiles
+// either way, are bounded in WinogradWeightGradient below): the forward's bounds for the tiles chosen,
+// kWinogradRms and kWinogradMax for the weight and bias gradients. Run with either tile.
+// Bounds of a forward-type pass (the forward and the input gradient) with the tiles $LRF_WINOGRAD_TILE
+// chooses; the weight gradient has 2x2 tiles either way.
+RelativeError forward_bounds() {
+  return lrf::WinogradConv3x3::chosen_tiles() == lrf::WinogradConv3x3::Tiles::f3x3
+             ? RelativeError{kWinograd3Rms, kWinograd3Max}
+             : RelativeError{kWinogradRms, kWinogradMax};
+}
+
+// With `tile` as $LRF_WINOGRAD_TILE.
+void check_mixed_conv_gradients(const char* tile) {
+  lrf::test::ScopedEnv tiles("LRF_WINOGRAD_TILE", tile);
+  const lrf::WinogradConv3x3::Tiles chosen = lrf::WinogradConv3x3::chosen_tiles();
+  const RelativeError forward = forward_bounds(), weights{kWinogradRms, kWinogradMax};
   // 7x11: partial tiles in both directions.
   const WinogradCase c = winograd_case(14, {2, 64, 7, 11}, 64);
   lrf::MixedConv2d conv = layer_of(c);
@@ -309,7 +322,7 @@ TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
   const at::Tensor y = conv->forward(x16);
   EXPECT_EQ(y.scalar_type(), at::kBFloat16);
   // The forward is exactly the inference kernel's.
-  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b).forward(c.x16, false)));
+  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b, false, chosen).forward(c.x16, false)));
   y.backward(up.to(at::kBFloat16));
 
   // float64 reference: libtorch's double convolution and its autograd, on the same rounded input.
@@ -317,11 +330,14 @@ TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
   const at::Tensor wd = c.w.to(at::kDouble).requires_grad_(true), bd = c.b.to(at::kDouble).requires_grad_(true);
   const at::Tensor yd = at::conv2d(xd, wd, bd, 1, 1);
   yd.backward(up.to(at::kDouble));
-  for (const auto& [got, want] : std::vector<std::pair<at::Tensor, at::Tensor>>{
-           {y, yd}, {x16.grad(), xd.grad()}, {conv->weight.grad(), wd.grad()}, {conv->bias.grad(), bd.grad()}}) {
+  for (const auto& [got, want, bound] : std::vector<std::tuple<at::Tensor, at::Tensor, RelativeError>>{
+           {y, yd, forward},
+           {x16.grad(), xd.grad(), forward},
+           {conv->weight.grad(), wd.grad(), weights},
+           {conv->bias.grad(), bd.grad(), weights}}) {
     const RelativeError e = relative_error(got, want);
-    EXPECT_LT(e.rms, kWinogradRms);
-    EXPECT_LT(e.max, kWinogradMax);
+    EXPECT_LT(e.rms, bound.rms);
+    EXPECT_LT(e.max, bound.max);
   }
   EXPECT_EQ(conv->weight.grad().scalar_type(), at::kFloat);  // the master weights' gradients stay float32
   // A layer without bias (as the decoder's after each upsampling) takes the same path.
@@ -331,10 +347,10 @@ TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
     plain->weight.copy_(c.w);
   }
   const at::Tensor y0 = plain->forward(x16);
-  EXPECT_TRUE(torch::equal(y0.detach(), lrf::WinogradConv3x3(c.w, {}).forward(c.x16, false)));
+  EXPECT_TRUE(torch::equal(y0.detach(), lrf::WinogradConv3x3(c.w, {}, false, chosen).forward(c.x16, false)));
   y0.backward(up.to(at::kBFloat16));
   EXPECT_TRUE(torch::equal(plain->weight.grad(), conv->weight.grad()));
-  EXPECT_TRUE(relative_error(y, reference_conv(c.x16.to(at::kFloat), c.w, c.b, 1, 1, {}, false)).rms < kWinogradRms);
+  EXPECT_TRUE(relative_error(y, reference_conv(c.x16.to(at::kFloat), c.w, c.b, 1, 1, {}, false)).rms < forward.rms);
 
   // The float64 reference's gradients agree with central differences of the float64 loop: the loss
   // sum(up * conv) is linear in each entry, so the differences are exact but for float64 rounding.
@@ -357,13 +373,25 @@ TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
   }
 }
 
+TEST(WinogradTraining, MixedConv2dGradientsMatchFloat64) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  check_mixed_conv_gradients("3");
+}
+
+TEST(WinogradTraining, MixedConv2dGradientsWith2x2TilesMatchFloat64) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  check_mixed_conv_gradients("2");
+}
+
 // A residual block's last convolution: relu(conv(x) + r), the add and the ReLU applied as the
 // convolution stores, and in the backward the ReLU's mask applied as the gradient is read; the residual's
 // gradient is that masked gradient. The mask is the derivative at the computed output, which is what
 // the float64 backward is given (an output within rounding of 0 may have the other sign in float64: that
 // is checked apart); then the tolerances above.
-TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
-  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+void check_residual_and_relu(const char* tile) {
+  lrf::test::ScopedEnv tiles("LRF_WINOGRAD_TILE", tile);
+  const lrf::WinogradConv3x3::Tiles chosen = lrf::WinogradConv3x3::chosen_tiles();
+  const RelativeError forward = forward_bounds(), weights{kWinogradRms, kWinogradMax};
   const WinogradCase c = winograd_case(16, {2, 64, 9, 6}, 64);
   lrf::MixedConv2d conv = layer_of(c);
   const at::Tensor x16 = c.x16.clone().requires_grad_(true);
@@ -372,7 +400,7 @@ TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
   const at::Tensor y = conv->forward_with(x16, r16, true);
   // The forward is the inference kernel's, residual and ReLU included; the caller's residual is unchanged.
   at::Tensor into = r16.detach().clone(at::MemoryFormat::ChannelsLast);
-  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b).forward(c.x16, true, into)));
+  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b, false, chosen).forward(c.x16, true, into)));
   y.backward(up.to(at::kBFloat16));
 
   const at::Tensor xd = c.x16.to(at::kDouble).requires_grad_(true), rd = r16.detach().to(at::kDouble).requires_grad_(true);
@@ -387,21 +415,33 @@ TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
   EXPECT_LT(disagree.sum().item<int64_t>(), yd.numel() / 100);
   if (disagree.any().item<bool>()) {
     EXPECT_LT(before_relu.detach().masked_select(disagree).abs().max().item<double>(),
-              kWinogradMax * yd.abs().max().item<double>());
+              forward.max * yd.abs().max().item<double>());
   }
-  for (const auto& [got, want] : std::vector<std::pair<at::Tensor, at::Tensor>>{{y, yd},
-                                                                                {x16.grad(), xd.grad()},
-                                                                                {r16.grad(), rd.grad()},
-                                                                                {conv->weight.grad(), wd.grad()},
-                                                                                {conv->bias.grad(), bd.grad()}}) {
+  // The residual's gradient is the upstream one masked: exact but for the mask's disagreements.
+  for (const auto& [got, want, bound] : std::vector<std::tuple<at::Tensor, at::Tensor, RelativeError>>{
+           {y, yd, forward},
+           {x16.grad(), xd.grad(), forward},
+           {r16.grad(), rd.grad(), weights},
+           {conv->weight.grad(), wd.grad(), weights},
+           {conv->bias.grad(), bd.grad(), weights}}) {
     const RelativeError e = relative_error(got, want);
-    EXPECT_LT(e.rms, kWinogradRms);
-    EXPECT_LT(e.max, kWinogradMax);
+    EXPECT_LT(e.rms, bound.rms);
+    EXPECT_LT(e.max, bound.max);
   }
   // Switched off, the same call is the plain layer's relu(conv + r).
   lrf::test::ScopedEnv off("LRF_WINOGRAD", "0");
   const at::Tensor direct = conv->forward_with(c.x16, r16.detach(), true);
   EXPECT_TRUE(torch::equal(direct, (conv->forward(c.x16) + r16.detach()).relu()));
+}
+
+TEST(WinogradTraining, ResidualAndReluInTheConvolutionMatchFloat64) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  check_residual_and_relu("3");
+}
+
+TEST(WinogradTraining, ResidualAndReluWith2x2TilesMatchFloat64) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  check_residual_and_relu("2");
 }
 
 // The weight and bias gradients by Winograd's transposed transforms, against float64 autograd on the

@@ -10,7 +10,7 @@
 namespace lrf {
 
 // A 3x3 / 1x1 convolution (zero padding, as every autoencoder layer uses). In bf16, the 3x3 ones of
-// stride 1 with multiples of 64 channels run as Winograd's F(2x2, 3x3) where the CPU has AVX512_BF16.
+// stride 1 with multiples of 64 channels run as Winograd's where the CPU has AVX512_BF16.
 class MixedConv2dImpl : public torch::nn::Conv2dImpl {
  public:
   explicit MixedConv2dImpl(const torch::nn::Conv2dOptions& options);
@@ -22,7 +22,7 @@ class MixedConv2dImpl : public torch::nn::Conv2dImpl {
  private:
   // A bf16 convolution whose weight gradient will be taken, on an output larger than one tile.
   bool needs_tiles(const at::Tensor& input) const;
-  // A bf16 3x3 convolution that Winograd's F(2x2, 3x3) runs, forward and input gradient
+  // A bf16 3x3 convolution that Winograd runs, forward and input gradient
   // (winograd_training.h): one that needs no tiles.
   bool runs_winograd(const at::Tensor& input) const;
 };

@@ -14,7 +14,6 @@
 
 #include "lrf/autoencoder/conv_destination.h"
 #include "lrf/autoencoder/winograd_conv.h"
-#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -106,8 +105,7 @@ FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int s
   impl_->padding = padding;
   if (impl_->kh == 3 && impl_->kw == 3 && stride == 1 && padding == 1 &&
       WinogradConv3x3::takes(impl_->outputs, impl_->inputs) && WinogradConv3x3::available()) {
-    const auto tiles = winograd_inference_tile() == 3 ? WinogradConv3x3::Tiles::f3x3 : WinogradConv3x3::Tiles::f2x2;
-    impl_->winograd = std::make_unique<WinogradConv3x3>(w, bias, false, tiles);
+    impl_->winograd = std::make_unique<WinogradConv3x3>(w, bias, false, WinogradConv3x3::chosen_tiles());
   }
 }
 

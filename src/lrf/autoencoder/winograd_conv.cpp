@@ -368,6 +368,8 @@ bool WinogradConv3x3::available() {
 #endif
 }
 
+WinogradConv3x3::Tiles WinogradConv3x3::chosen_tiles() { return winograd_tile() == 3 ? Tiles::f3x3 : Tiles::f2x2; }
+
 WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input, Tiles tiles)
     : upsampled_(upsampled_input), tile_(tiles == Tiles::f3x3 ? 3 : 2) {
   if (upsampled_ && tile_ != 2) fail("WinogradConv3x3: an upsampled input takes 2x2 tiles only");

@@ -28,6 +28,8 @@ class WinogradConv3x3 {
   // Output tiles: F(2x2, 3x3) takes 16 products per 4 outputs; F(3x3, 3x3) takes 25 per 9 (0.69x as many
   // per output) at about 3x the rounding error, which the decoded images still absorb (README, Speed).
   enum class Tiles { f2x2, f3x3 };
+  // The tiles asked for: winograd_tile() (cpu_features.h), 3x3 unless $LRF_WINOGRAD_TILE=2.
+  static Tiles chosen_tiles();
 
   // weight [O, I, 3, 3], bias [O] or undefined (any dtype and layout; copied). `upsampled_input`: the
   // convolution of the input upsampled 2x (nearest), computed from the input itself with 9 products per

@@ -49,7 +49,7 @@ class WinogradConvFunction : public torch::autograd::Function<WinogradConvFuncti
     }
     // The weights change with every optimiser step, so they are transformed on each call (~0.15 ms for
     // 64x64, against the convolution's milliseconds).
-    const at::Tensor y = WinogradConv3x3(weight, bias).forward(x, relu, into);
+    const at::Tensor y = WinogradConv3x3(weight, bias, false, WinogradConv3x3::chosen_tiles()).forward(x, relu, into);
     ctx->saved_data["relu"] = relu;
     // The output is kept only for the ReLU's mask.
     ctx->save_for_backward({x, weight, relu ? y : at::Tensor()});
@@ -65,7 +65,7 @@ class WinogradConvFunction : public torch::autograd::Function<WinogradConvFuncti
     if (ctx->needs_input_grad(0)) {
       // d(input) = the 'same' convolution of d(output) with w'[i][o][dy][dx] = w[o][i][2 - dy][2 - dx].
       const at::Tensor turned = weight.transpose(0, 1).flip({2, 3});
-      grad_input = WinogradConv3x3(turned, {}).forward(g, /*relu=*/false);
+      grad_input = WinogradConv3x3(turned, {}, false, WinogradConv3x3::chosen_tiles()).forward(g, /*relu=*/false);
     }
     const bool need_weight = ctx->needs_input_grad(1), need_bias = ctx->needs_input_grad(2);
     if (need_weight || need_bias) {

@@ -1,8 +1,9 @@
 #pragma once
-// The autoencoders' 3x3 convolutions while training in bf16, with Winograd's F(2x2, 3x3) (winograd_conv.h)
-// in all three passes: the forward; the gradient of the input, which is itself a 3x3 convolution of the
-// output's gradient (kernels transposed and flipped); and the weight and bias gradients, by the
-// transposed transforms (winograd_weight_gradient.h). A residual and a ReLU after the convolution are
+// The autoencoders' 3x3 convolutions while training in bf16, by Winograd (winograd_conv.h) in all three
+// passes: the forward and the gradient of the input, which is itself a 3x3 convolution of the output's
+// gradient (kernels transposed and flipped), with the tiles WinogradConv3x3::chosen_tiles() names (3x3
+// unless $LRF_WINOGRAD_TILE=2); and the weight and bias gradients, by F(2x2, 3x3)'s transposed
+// transforms (winograd_weight_gradient.h). A residual and a ReLU after the convolution are
 // applied as it stores its outputs, and their backward (the ReLU's mask) as the gradient is read:
 // libtorch 1.13's bf16 adds and ReLU gradients are slow elementwise passes, which in a residual block
 // cost as much as the convolutions.

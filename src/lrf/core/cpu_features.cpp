@@ -87,7 +87,7 @@ bool fused_conv_enabled() { return !switched_off("LRF_FUSED_CONV"); }
 
 bool winograd_enabled() { return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && cpu_has_avx512_bf16(); }
 
-int winograd_inference_tile() {
+int winograd_tile() {
   const char* v = std::getenv("LRF_WINOGRAD_TILE");
   if (!v || !*v) return 3;
   const std::string tile = v;

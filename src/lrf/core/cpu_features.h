@@ -22,15 +22,16 @@ bool cpu_has_avx512_bf16();
 // misbehave). Read on every call, so that a test can switch it.
 bool fused_conv_enabled();
 
-// Whether bf16 inference and training may run 3x3 convolutions as Winograd's, F(3x3, 3x3) in inference and
-// F(2x2, 3x3) in training (winograd_conv.h, winograd_training.h): cpu_has_avx512_bf16(),
-// fused_conv_enabled() (which switches all of the project's own convolution kernels), and $LRF_WINOGRAD
-// is not 0. Read on every call.
+// Whether bf16 inference and training may run 3x3 convolutions as Winograd's (winograd_conv.h,
+// winograd_training.h): cpu_has_avx512_bf16(), fused_conv_enabled() (which switches all of the project's
+// own convolution kernels), and $LRF_WINOGRAD is not 0. Read on every call.
 bool winograd_enabled();
 
-// The output tile side of Winograd inference (FusedConv2d): 3, F(3x3, 3x3), unless $LRF_WINOGRAD_TILE is
-// 2, the F(2x2, 3x3) that training runs (kept to compare against). Read when a layer is built.
-int winograd_inference_tile();
+// The output tile side of Winograd's convolutions (inference, and training's forward and input
+// gradient; the weight gradient has 2x2 tiles either way): 3, F(3x3, 3x3), unless $LRF_WINOGRAD_TILE is
+// 2, F(2x2, 3x3) (kept to compare against). Read on every call; inference layers keep the tiles they
+// were built with.
+int winograd_tile();
 
 // Whether the CPU runs AVX2 (8-lane float vectors), for the loops compiled for it beside the baseline
 // ones: the rasterizer's kernels and Adam's update. Asked once; every x86-64 CPU of the last decade has it.

@@ -42,8 +42,8 @@ nlohmann::json version_info() {
           // Whether bf16 inference and training ran their 3x3 convolutions as Winograd's (roundings
           // differ from the direct convolution's).
           {"autoencoder_winograd", resolve_precision(default_precision()) == Precision::bf16 && winograd_enabled()},
-          // Its output tiles in inference (2 or 3; they round differently).
-          {"autoencoder_winograd_tile", winograd_inference_tile()}};
+          // Its output tiles (2 or 3; they round differently).
+          {"autoencoder_winograd_tile", winograd_tile()}};
 }
 
 std::string version_string() {

@@ -36,7 +36,7 @@ LatentCacheResult encode_views_cached(const Scene& scene, const std::vector<int>
   // ... and bf16 ones through Winograd's convolution from those through the direct one.
   if (ae.precision() == Precision::bf16 && winograd_enabled()) {
     // (its tiles round differently: F(2x2, 3x3) was the only one before the key named the tile)
-    const int tile = winograd_inference_tile();
+    const int tile = winograd_tile();
     key << ";convolution=winograd-f" << tile << "x" << tile << "-3x3";
   }
   for (int i : indices) {
