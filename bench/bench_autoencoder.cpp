@@ -10,7 +10,9 @@
 //             ran at the rate of the fastest bf16 64->64 convolution measured here (FLOPs / that rate):
 //             inference's (Winograd where the CPU has AVX512_BF16) for decode and encode and for the
 //             training steps' forward and data gradients, the faster weight gradient's (Winograd's or
-//             the direct one's) for their weight gradients
+//             the direct one's) for their weight gradients; then the floor under those: the products
+//             alone (Winograd's for the convolutions it takes, with the tiles chosen, direct for the
+//             rest), counted layer by layer, at the CPU's bf16 dot-product peak measured on registers
 //   wgrad     the weight and bias gradient of one 64->64 3x3 convolution on 4 crops of 96x96 (a Stage I
 //             step's encoder level), bf16: oneDNN's direct one against Winograd's (where the CPU has
 //             AVX512_BF16), alternated
@@ -32,7 +34,9 @@
 //
 // usage: bench_autoencoder [--threads N] [--reps R] [CASE ...]   (default: every case but kl; 2 threads)
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -45,6 +49,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/autoencoder/bf16_vectors.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/winograd_conv.h"
@@ -208,6 +213,113 @@ void bench_weight_gradient(int reps) {
   });
 }
 
+// The CPU's own ceiling for the products the convolutions are made of: every thread at once runs
+// AVX512_BF16 dot products on 24 independent accumulators held in registers, with no memory access and
+// nothing else to do. No bf16 convolution kernel on this CPU multiplies faster. 0 without AVX512_BF16.
+#if defined(__x86_64__)
+LRF_AVX512_BF16 float dot_product_loop(int64_t iterations) {
+  __m512 acc[24];
+  for (int i = 0; i < 24; ++i) acc[i] = _mm512_set1_ps(static_cast<float>(i));
+  __m512bh a = reinterpret_cast<__m512bh>(_mm512_set1_epi32(0x3F803F80));  // (1, 1)
+  const __m512bh b = reinterpret_cast<__m512bh>(_mm512_set1_epi32(0x3C003C00));
+  for (int64_t it = 0; it < iterations; ++it) {
+#pragma GCC unroll 24
+    for (int i = 0; i < 24; ++i) acc[i] = _mm512_dpbf16_ps(acc[i], a, b);
+    __asm__ volatile("" : "+v"(a));  // keeps the loop from being folded
+  }
+  alignas(64) float lanes[16];
+  __m512 sum = acc[0];
+  for (int i = 1; i < 24; ++i) sum = _mm512_add_ps(sum, acc[i]);
+  _mm512_store_ps(lanes, sum);
+  return lanes[0];
+}
+#endif
+
+double dot_product_peak_flops(int reps) {
+#if defined(__x86_64__)
+  if (!lrf::cpu_has_avx512_bf16()) return 0;
+  const int64_t threads = at::get_num_threads(), iterations = 20'000'000;
+  double best = 1e30;
+  for (int r = 0; r < reps; ++r) {
+    const double t0 = now();
+    std::atomic<float> sink{0};
+    at::parallel_for(0, threads, 1, [&](int64_t begin, int64_t end) {
+      for (int64_t t = begin; t < end; ++t) sink = sink + dot_product_loop(iterations);
+    });
+    best = std::min(best, now() - t0);
+  }
+  return threads * iterations * 24 * 16 * 2 * 2 / best;  // 16 lanes, 2 pairs, 2 flops each
+#else
+  (void)reps;
+  return 0;
+#endif
+}
+
+// TAEF2's convolutions one by one (tiny_ae.cpp), with the way each runs in bf16 where the CPU has
+// AVX512_BF16: inference takes Winograd for 3x3 stride-1 convolutions of multiples of 32 inputs and 64
+// outputs (upsampled ones on 2x2 tiles, 9 products per 4 outputs), training for those of 64 channels both
+// ways (an upsampled one as a plain convolution of the upsampled image), everything else runs direct.
+struct ConvLayer {
+  double macs;  // direct multiply-adds, at the output's resolution
+  enum { winograd, upsampled, direct } inference;
+  bool trained_by_winograd;
+};
+
+std::vector<ConvLayer> taef2_encoder_layers(int w, int h) {
+  const double p = static_cast<double>(w) * h;
+  std::vector<ConvLayer> layers = {{3.0 * 64 * 9 * p, ConvLayer::direct, false}};
+  auto block = [&](double pixels, bool pool) {
+    for (int i = 0; i < 3; ++i) layers.push_back({kConv64 * pixels, ConvLayer::winograd, true});
+    if (pool) layers.push_back({kPool * pixels, ConvLayer::direct, false});
+  };
+  block(p, false);
+  for (int level = 1; level <= 3; ++level) {
+    const double pixels = p / (1 << (2 * level));
+    layers.push_back({kConv64 * pixels, ConvLayer::direct, false});  // stride 2
+    for (int b = 0; b < 3; ++b) block(pixels, level == 3);
+  }
+  layers.push_back({64.0 * 32 * 9 * p / 64, ConvLayer::direct, false});
+  return layers;
+}
+
+std::vector<ConvLayer> taef2_decoder_layers(int w, int h) {
+  const double p = static_cast<double>(w) * h;
+  std::vector<ConvLayer> layers = {{32.0 * 64 * 9 * p / 64, ConvLayer::winograd, false}};
+  auto block = [&](double pixels, bool pool) {
+    for (int i = 0; i < 3; ++i) layers.push_back({kConv64 * pixels, ConvLayer::winograd, true});
+    if (pool) layers.push_back({kPool * pixels, ConvLayer::direct, false});
+  };
+  for (int level = 3; level >= 1; --level) {
+    for (int b = 0; b < 3; ++b) block(p / (1 << (2 * level)), level == 3);
+    layers.push_back({kConv64 * p / (1 << (2 * (level - 1))), ConvLayer::upsampled, true});
+  }
+  block(p, false);
+  layers.push_back({64.0 * 3 * 9 * p, ConvLayer::direct, false});
+  return layers;
+}
+
+// Products (bf16 multiply-adds) each pass needs, for Winograd tiles taking `tile_share` of the direct
+// products (25/81 for 3x3 tiles, 16/36 for 2x2).
+double inference_products(const std::vector<ConvLayer>& layers, double tile_share) {
+  double sum = 0;
+  for (const auto& l : layers) {
+    sum += l.macs * (l.inference == ConvLayer::winograd ? tile_share : l.inference == ConvLayer::upsampled ? 0.25 : 1);
+  }
+  return sum;
+}
+// The training forward, or the input gradient (the same convolutions transposed; without the first
+// layer's when its input takes no gradient).
+double training_products(const std::vector<ConvLayer>& layers, double tile_share, bool first_layer = true) {
+  double sum = 0;
+  for (size_t i = first_layer ? 0 : 1; i < layers.size(); ++i) {
+    sum += layers[i].macs * (layers[i].trained_by_winograd ? tile_share : 1);
+  }
+  return sum;
+}
+double weight_gradient_products(const std::vector<ConvLayer>& layers) {
+  return training_products(layers, 16.0 / 36);  // F(2x2, 3x3)'s transposed transforms
+}
+
 // The least time each measured workload can take on this CPU if every convolution ran as fast as the
 // fastest one measured here (a 64->64 3x3 at 504x376, bf16, channels-last, through libtorch's path or
 // the fused one, best of `reps`): multiply-adds counted from the architecture, as in the GFLOP/s
@@ -268,6 +380,52 @@ void bench_bounds(int reps) {
   // Stage III, per 128x128 crop (2 + 2 per step): the trained decoder forward, data and weight gradients.
   const double d128 = taef2_decode_flops(128, 128);
   bound("Stage III step (4 crops of 128x128)", 4 * 3 * d128, 4 * (2 * d128 / inference + d128 / weight_gradient),
+        "issue 17: <= 0.3 s");
+
+  // The floor under those bounds: the products alone, at the CPU's dot-product peak, with the transforms,
+  // memory traffic and every other pass free.
+  const double peak = dot_product_peak_flops(reps);
+  if (!winograd || peak <= 0) {
+    std::printf("floor: needs AVX512_BF16 (and Winograd on); skipped\n\n");
+    std::fflush(stdout);
+    return;
+  }
+  const bool three = lrf::WinogradConv3x3::chosen_tiles() == lrf::WinogradConv3x3::Tiles::f3x3;
+  const double share = three ? 25.0 / 81 : 16.0 / 36;
+  std::printf("floor: bf16 dot products peak at %.0f GFLOP/s here (all threads, on registers); the products "
+              "alone with %s tiles:\n",
+              peak * 1e-9, three ? "3x3" : "2x2");
+  auto floor = [&](const char* what, double products, const char* target) {
+    const double seconds = 2 * products / peak;
+    std::printf("floor: %-44s %7.1f GFLOP  >= %7.1f ms  <= %6.2f /s   (%s)\n", what, 2 * products * 1e-9,
+                1e3 * seconds, 1 / seconds, target);
+  };
+  const auto encoder = taef2_encoder_layers(kWidth, kHeight), decoder = taef2_decoder_layers(kWidth, kHeight);
+  // The layer lists and the architecture's totals above must count the same multiply-adds.
+  auto direct_flops = [](const std::vector<ConvLayer>& layers) {
+    double sum = 0;
+    for (const auto& l : layers) sum += 2 * l.macs;
+    return sum;
+  };
+  if (std::abs(direct_flops(encoder) / encode - 1) > 1e-9 ||
+      std::abs(direct_flops(decoder) / taef2_decode_flops(kWidth, kHeight) - 1) > 1e-9) {
+    lrf::fail("bench_autoencoder: the layer lists disagree with taef2_encode_flops / taef2_decode_flops");
+  }
+  floor("decode 504x376", inference_products(decoder, share), "issue 17: >= 20 /s");
+  floor("encode 504x376", inference_products(encoder, share), "issue 17: >= 10 /s");
+  // Stage I per crop: the trained encoder's forward, input gradient (not into the image) and weight
+  // gradient, the frozen decoder's forward and input gradient (down to the latent), the original
+  // encoder's forward (inference: no gradient recorded).
+  const auto layers_e192 = taef2_encoder_layers(192, 192), layers_d192 = taef2_decoder_layers(192, 192);
+  floor("Stage I step (4 crops of 192x192)",
+        4 * (training_products(layers_e192, share) + training_products(layers_e192, share, false) + weight_gradient_products(layers_e192) +
+             2 * training_products(layers_d192, share) + inference_products(layers_e192, share)),
+        "issue 17: <= 0.3 s");
+  // Stage III per crop: the trained decoder's forward, input gradient (not into the rendered latent) and
+  // weight gradient.
+  const auto layers_d128 = taef2_decoder_layers(128, 128);
+  floor("Stage III step (4 crops of 128x128)",
+        4 * (training_products(layers_d128, share) + training_products(layers_d128, share, false) + weight_gradient_products(layers_d128)),
         "issue 17: <= 0.3 s");
   std::printf("\n");
   std::fflush(stdout);
