@@ -19,6 +19,8 @@
 //   tiles     bf16 decode and encode with Winograd's 2x2 output tiles (A) against its 3x3 ones (B, the
 //             default), alternated: two copies of TAEF2 whose layers were built under each
 //             $LRF_WINOGRAD_TILE (where the CPU has AVX512_BF16)
+//   narrow    the decoder's last layer (64 -> 3 at 504x376, bf16): libtorch's convolution (oneDNN direct)
+//             against NarrowConv3x3 (where the CPU has AVX512_BF16), alternated
 //   encode    image -> latent, no gradient
 //   decode    latent -> image, no gradient
 //   fused     encode and decode, bf16 then fp32: the torch modules against the fused layers
@@ -52,6 +54,7 @@
 #include "lrf/autoencoder/bf16_vectors.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
+#include "lrf/autoencoder/narrow_conv.h"
 #include "lrf/autoencoder/winograd_conv.h"
 #include "lrf/autoencoder/winograd_weight_gradient.h"
 #include "lrf/autoencoder/onednn_conv.h"
@@ -514,6 +517,29 @@ void bench_tiles(int reps) {
             [&](bool by_three) { (by_three ? three : two)->encode(x); });
 }
 
+// The decoder's last layer, 64 -> 3 at 504x376 in bf16: libtorch's convolution (oneDNN's direct kernel,
+// what training's forward runs) against NarrowConv3x3 (inference's, where the CPU has AVX512_BF16),
+// alternated.
+void bench_narrow(int reps) {
+  if (!lrf::NarrowConv3x3::available()) {
+    std::printf("narrow: needs AVX512_BF16 (and LRF_FUSED_CONV not 0); skipped\n\n");
+    return;
+  }
+  torch::NoGradGuard no_grad;
+  torch::manual_seed(0);
+  const at::Tensor x = torch::rand({1, 64, kHeight, kWidth}).contiguous(at::MemoryFormat::ChannelsLast).to(at::kBFloat16);
+  const at::Tensor w = torch::randn({3, 64, 3, 3}) * 0.05, b = torch::randn({3});
+  const at::Tensor w16 = w.contiguous(at::MemoryFormat::ChannelsLast).to(at::kBFloat16), b16 = b.to(at::kBFloat16);
+  const lrf::NarrowConv3x3 narrow(w, b);
+  alternate("narrow", reps, 2.0 * 3 * 64 * 9 * kWidth * kHeight, "onednn", "narrow", [&](bool by_narrow) {
+    if (by_narrow) {
+      narrow.forward(x, false);
+    } else {
+      at::conv2d(x, w16, b16, 1, 1);
+    }
+  });
+}
+
 // What the explicit casts of the fp32 master weights to bf16 cost in one step: casting every weight of
 // the model once (the alternative, a bf16 copy refreshed after each Adam step, casts each once per step
 // too, so this bounds what it could save).
@@ -645,7 +671,7 @@ int main(int argc, char** argv) {
     }
   }
   const std::set<std::string> known = {"conv",     "bounds", "wgrad",  "tiles",   "encode", "decode",
-                                       "fused",    "backward", "stage1", "stage3", "quality", "kl"};
+                                       "fused",    "backward", "stage1", "stage3", "quality", "kl", "narrow"};
   for (const auto& c : cases) {
     if (!known.count(c)) {
       std::string names;
@@ -655,7 +681,7 @@ int main(int argc, char** argv) {
     }
   }
   if (cases.empty()) {
-    cases = {"conv", "bounds", "wgrad", "tiles", "encode", "decode", "backward", "stage1", "stage3", "quality"};
+    cases = {"conv", "bounds", "wgrad", "tiles", "narrow", "encode", "decode", "backward", "stage1", "stage3", "quality"};
   }
   lrf::set_thread_count(threads);
   double load[3] = {0, 0, 0};
@@ -666,6 +692,7 @@ int main(int argc, char** argv) {
     if (cases.count("bounds")) bench_bounds(reps);
     if (cases.count("wgrad")) bench_weight_gradient(reps);
     if (cases.count("tiles")) bench_tiles(reps);
+    if (cases.count("narrow")) bench_narrow(reps);
     if (cases.count("encode") || cases.count("decode") || cases.count("fused") || cases.count("backward") || cases.count("quality")) {
       auto ae = make_taef2();
       bench_taef2(*ae, cases, reps);

@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/mixed_layers.h"
+#include "lrf/autoencoder/narrow_conv.h"
 #include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/autoencoder/tiny_block.h"
@@ -284,6 +285,74 @@ TEST(WinogradConv3x3, RefusesWhatItCannotRun) {
   if (!lrf::WinogradConv3x3::available()) return;
   const at::Tensor x16 = channels_last(torch::randn({1, 32, 4, 4}).to(at::kBFloat16));
   EXPECT_NE(lrf::test::error_of([&] { conv.forward(x16, false, x16.clone()); }).find("residual"), std::string::npos);
+}
+
+// The direct bf16 convolution's roundings, against float64 on the same bf16 inputs: the weights' (2^-9
+// relative each, independent) and the output's (at most 2^-9 of its value). Measured on the cases below
+// 0.21-0.23 % rms and 0.24-0.28 % of the largest value, as oneDNN's direct kernel gives on them. The
+// bounds of the Winograd tests, 2^-7 rms and 2^-5 of the largest value, hold that with margin; a tap
+// taken from the wrong pixel or a lost pair of channels gives errors the size of the values.
+constexpr double kDirectRms = kWinogradRms, kDirectMax = kWinogradMax;
+
+TEST(NarrowConv3x3, MatchesAFloat64LoopForOneTwoAndThreeOutputs) {
+  if (!lrf::NarrowConv3x3::available()) GTEST_SKIP() << "this CPU has no AVX512_BF16";
+  // 21 columns: a group of 8 with the left padding, an inner group of 8, and a short group of 5 with the
+  // right padding; 7 rows, the first and last against the padding; 2 images.
+  for (int64_t outputs : {1, 2, 3}) {
+    SCOPED_TRACE("outputs " + std::to_string(outputs));
+    const WinogradCase c = winograd_case(20 + static_cast<uint64_t>(outputs), {2, 64, 7, 21}, outputs);
+    const lrf::NarrowConv3x3 conv(c.w, c.b);
+    const at::Tensor y = conv.forward(c.x16, false);
+    ASSERT_EQ(y.sizes(), (std::vector<int64_t>{2, outputs, 7, 21}));
+    EXPECT_EQ(y.scalar_type(), at::kBFloat16);
+    EXPECT_TRUE(y.is_contiguous(at::MemoryFormat::ChannelsLast));
+    const at::Tensor x = c.x16.to(at::kFloat);
+    const RelativeError e = relative_error(y, reference_conv(x, c.w, c.b, 1, 1, {}, false));
+    EXPECT_LT(e.rms, kDirectRms);
+    EXPECT_LT(e.max, kDirectMax);
+  }
+  // The residual (read as bf16) is added before the ReLU, into the tensor handed in; 32 inputs; 16
+  // columns, so that the second group of 8 ends at the right padding.
+  const WinogradCase c = winograd_case(24, {1, 32, 4, 16}, 3);
+  const lrf::NarrowConv3x3 conv(c.w, c.b);
+  const at::Tensor r16 = channels_last(torch::randn({1, 3, 4, 16}).to(at::kBFloat16));
+  at::Tensor into = r16.clone(at::MemoryFormat::ChannelsLast);
+  EXPECT_TRUE(conv.forward(c.x16, true, into).is_same(into));
+  const at::Tensor want = reference_conv(c.x16.to(at::kFloat), c.w, c.b, 1, 1, r16.to(at::kFloat), true);
+  const RelativeError e = relative_error(into, want);
+  EXPECT_LT(e.rms, kDirectRms);
+  EXPECT_LT(e.max, kDirectMax);
+  EXPECT_GT(want.eq(0).sum().item<int64_t>(), 0);  // the ReLU clipped something
+  // A single pixel: eight of its nine taps are padding.
+  const at::Tensor dot16 = channels_last(torch::randn({1, 32, 1, 1}).to(at::kBFloat16));
+  EXPECT_LT(relative_error(conv.forward(dot16, false), reference_conv(dot16.to(at::kFloat), c.w, c.b, 1, 1, {}, false)).rms,
+            kDirectRms);
+}
+
+TEST(NarrowConv3x3, FusedConv2dTakesItInBf16AndRefusesWhatItCannotRun) {
+  EXPECT_TRUE(lrf::NarrowConv3x3::takes(3, 64));
+  EXPECT_FALSE(lrf::NarrowConv3x3::takes(4, 64));  // 8 pixels x 3 outputs fill the registers
+  EXPECT_FALSE(lrf::NarrowConv3x3::takes(3, 48));  // channels are multiplied 32 at a time
+  EXPECT_NE(lrf::test::error_of([] { lrf::NarrowConv3x3(torch::randn({3, 64, 1, 1}), {}); }).find("[O, I, 3, 3]"),
+            std::string::npos);
+  EXPECT_NE(lrf::test::error_of([] { lrf::NarrowConv3x3(torch::randn({8, 64, 3, 3}), {}); }).find("1 to 3 outputs"),
+            std::string::npos);
+  const WinogradCase c = winograd_case(25, {1, 64, 6, 11}, 3);
+  const lrf::NarrowConv3x3 narrow(c.w, c.b);
+  EXPECT_NE(lrf::test::error_of([&] { narrow.forward(c.x16.to(at::kFloat), false); }).find("bf16"), std::string::npos);
+  if (!lrf::NarrowConv3x3::available()) return;
+  const lrf::FusedConv2d fused(c.w, c.b, 1, 1);
+  EXPECT_STREQ(fused.bf16_kernel(), "narrow");
+  EXPECT_TRUE(torch::equal(fused.forward(c.x16, false), narrow.forward(c.x16, false)));
+  EXPECT_STREQ(lrf::FusedConv2d(torch::randn({4, 64, 3, 3}), {}, 1, 1).bf16_kernel(), "onednn");
+  EXPECT_STREQ(lrf::FusedConv2d(torch::randn({3, 64, 3, 3}), {}, 2, 1).bf16_kernel(), "onednn");  // strided
+  // Switched off (as on a CPU without BF16): oneDNN's direct convolution.
+  lrf::test::ScopedEnv off("LRF_FUSED_CONV", "0");
+  EXPECT_FALSE(lrf::NarrowConv3x3::available());
+  EXPECT_STREQ(fused.bf16_kernel(), "onednn");
+  const at::Tensor direct = fused.forward(c.x16, false);
+  EXPECT_LT(relative_error(direct, reference_conv(c.x16.to(at::kFloat), c.w, c.b, 1, 1, {}, false)).rms, kDirectRms);
+  EXPECT_NE(lrf::test::error_of([&] { narrow.forward(c.x16, false); }).find("AVX512_BF16"), std::string::npos);
 }
 
 // A training layer (float32 master weights) holding the case's weights and bias.

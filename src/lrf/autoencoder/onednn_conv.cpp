@@ -13,6 +13,7 @@
 #include <oneapi/dnnl/dnnl.hpp>
 
 #include "lrf/autoencoder/conv_destination.h"
+#include "lrf/autoencoder/narrow_conv.h"
 #include "lrf/autoencoder/winograd_conv.h"
 #include "lrf/core/error.h"
 
@@ -49,6 +50,8 @@ struct FusedConv2d::Impl {
   std::map<Key, std::shared_ptr<const Prepared>> cache;
   // The bf16 path of a 3x3 convolution (stride 1, padding 1) whose channel counts it takes.
   std::unique_ptr<WinogradConv3x3> winograd;
+  // The bf16 path of a 3x3 convolution (stride 1, padding 1) to a few outputs (narrow_conv.h).
+  std::unique_ptr<NarrowConv3x3> narrow;
 
   std::shared_ptr<const Prepared> prepared(bool bf16, int64_t n, int64_t h, int64_t w, bool relu, bool sum) {
     const Key key{bf16, n, h, w, relu, sum};
@@ -107,9 +110,19 @@ FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int s
       WinogradConv3x3::takes(impl_->outputs, impl_->inputs) && WinogradConv3x3::available()) {
     impl_->winograd = std::make_unique<WinogradConv3x3>(w, bias, false, WinogradConv3x3::chosen_tiles());
   }
+  if (impl_->kh == 3 && impl_->kw == 3 && stride == 1 && padding == 1 &&
+      NarrowConv3x3::takes(impl_->outputs, impl_->inputs) && NarrowConv3x3::available()) {
+    impl_->narrow = std::make_unique<NarrowConv3x3>(w, bias);
+  }
 }
 
 FusedConv2d::~FusedConv2d() = default;
+
+const char* FusedConv2d::bf16_kernel() const {
+  if (impl_->winograd && WinogradConv3x3::available()) return "winograd";
+  if (impl_->narrow && NarrowConv3x3::available()) return "narrow";
+  return "onednn";
+}
 
 at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Tensor& residual) const {
   Impl& m = *impl_;
@@ -121,8 +134,10 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
   if (input.size(2) + 2 * m.padding < m.kh || input.size(3) + 2 * m.padding < m.kw) {
     fail("FusedConv2d: input " + shape_of(input) + " is smaller than the kernel");
   }
-  if (dtype == at::kBFloat16 && m.winograd && WinogradConv3x3::available()) {
-    return m.winograd->forward(input, relu, residual);
+  if (dtype == at::kBFloat16) {
+    const std::string kernel = bf16_kernel();
+    if (kernel == "winograd") return m.winograd->forward(input, relu, residual);
+    if (kernel == "narrow") return m.narrow->forward(input, relu, residual);
   }
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const bool sum = residual.defined();

@@ -22,12 +22,17 @@ class FusedConv2d {
   FusedConv2d& operator=(const FusedConv2d&) = delete;
 
   // input [N, I, H, W], bf16 or float32 (bf16: products in bf16, sums in float32, as at::conv2d's bf16
-  // path; a 3x3 convolution with stride 1 and padding 1 runs as WinogradConv3x3 where that takes it).
+  // path; a 3x3 convolution with stride 1 and padding 1 runs as WinogradConv3x3 or, to 1 to 3 outputs, as
+  // NarrowConv3x3 where those take it).
   // Returns [N, O, H', W'] channels-last in the input's dtype: conv + bias, then + `residual`
   // when it is defined, then the ReLU when `relu`. A defined `residual` must be channels-last with the
   // output's shape and dtype and must not overlap the input; the result is written into it (its
   // values are consumed) and it is returned. Thread-safe; each new input shape builds (and keeps) its own oneDNN primitive.
   at::Tensor forward(const at::Tensor& input, bool relu, const at::Tensor& residual = {}) const;
+
+  // Which kernel a bf16 input runs on now: "winograd" (winograd_conv.h), "narrow" (narrow_conv.h) or
+  // "onednn" (direct).
+  const char* bf16_kernel() const;
 
  private:
   struct Impl;
