@@ -51,13 +51,13 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/autoencoder.h"
-#include "lrf/autoencoder/bf16_vectors.h"
+#include "lrf/autoencoder/conv/bf16_vectors.h"
+#include "lrf/autoencoder/conv/narrow_conv.h"
+#include "lrf/autoencoder/conv/onednn_conv.h"
+#include "lrf/autoencoder/conv/winograd_conv.h"
+#include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
-#include "lrf/autoencoder/narrow_conv.h"
-#include "lrf/autoencoder/winograd_conv.h"
-#include "lrf/autoencoder/winograd_weight_gradient.h"
-#include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/core/allocator.h"
 #include "lrf/core/cpu_features.h"

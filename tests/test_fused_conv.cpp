@@ -9,15 +9,15 @@
 #include <gtest/gtest.h>
 #include <torch/torch.h>
 
+#include "lrf/autoencoder/conv/narrow_conv.h"
+#include "lrf/autoencoder/conv/onednn_conv.h"
+#include "lrf/autoencoder/conv/winograd_conv.h"
+#include "lrf/autoencoder/conv/winograd_training.h"
+#include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/autoencoder/mixed_layers.h"
-#include "lrf/autoencoder/narrow_conv.h"
-#include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_ae.h"
 #include "lrf/autoencoder/tiny_block.h"
 #include "lrf/autoencoder/tiny_fused.h"
-#include "lrf/autoencoder/winograd_conv.h"
-#include "lrf/autoencoder/winograd_training.h"
-#include "lrf/autoencoder/winograd_weight_gradient.h"
 #include "lrf/core/cpu_features.h"
 #include "test_helpers.h"
 

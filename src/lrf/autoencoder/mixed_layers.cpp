@@ -5,7 +5,7 @@
 
 #include <ATen/ATen.h>
 
-#include "lrf/autoencoder/winograd_training.h"
+#include "lrf/autoencoder/conv/winograd_training.h"
 #include "lrf/core/error.h"
 
 namespace lrf {

@@ -5,9 +5,9 @@
 
 #include <torch/torch.h>
 
+#include "lrf/autoencoder/conv/onednn_conv.h"
 #include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/autoencoder/strict_load.h"
-#include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_block.h"
 #include "lrf/autoencoder/tiny_fused.h"
 #include "lrf/core/cpu_features.h"

@@ -2,8 +2,8 @@
 
 #include <torch/torch.h>
 
+#include "lrf/autoencoder/conv/onednn_conv.h"
 #include "lrf/autoencoder/mixed_layers.h"
-#include "lrf/autoencoder/onednn_conv.h"
 #include "lrf/autoencoder/tiny_block.h"
 
 namespace lrf {

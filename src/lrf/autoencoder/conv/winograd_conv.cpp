@@ -1,4 +1,4 @@
-#include "lrf/autoencoder/winograd_conv.h"
+#include "lrf/autoencoder/conv/winograd_conv.h"
 
 #include <algorithm>
 #include <cstring>
@@ -7,9 +7,9 @@
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 
-#include "lrf/autoencoder/bf16_vectors.h"
-#include "lrf/autoencoder/conv_destination.h"
-#include "lrf/autoencoder/winograd_tiles.h"
+#include "lrf/autoencoder/conv/bf16_vectors.h"
+#include "lrf/autoencoder/conv/conv_destination.h"
+#include "lrf/autoencoder/conv/winograd_tiles.h"
 #include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 

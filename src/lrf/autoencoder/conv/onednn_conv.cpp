@@ -1,4 +1,4 @@
-#include "lrf/autoencoder/onednn_conv.h"
+#include "lrf/autoencoder/conv/onednn_conv.h"
 
 #include <cstring>
 #include <map>
@@ -12,9 +12,9 @@
 #include <ATen/Parallel.h>
 #include <oneapi/dnnl/dnnl.hpp>
 
-#include "lrf/autoencoder/conv_destination.h"
-#include "lrf/autoencoder/narrow_conv.h"
-#include "lrf/autoencoder/winograd_conv.h"
+#include "lrf/autoencoder/conv/conv_destination.h"
+#include "lrf/autoencoder/conv/narrow_conv.h"
+#include "lrf/autoencoder/conv/winograd_conv.h"
 #include "lrf/core/error.h"
 
 namespace lrf {

@@ -1,4 +1,4 @@
-#include "lrf/autoencoder/winograd_weight_gradient.h"
+#include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 
 #include <algorithm>
 #include <cstring>
@@ -10,8 +10,8 @@
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 
-#include "lrf/autoencoder/bf16_vectors.h"
-#include "lrf/autoencoder/winograd_conv.h"
+#include "lrf/autoencoder/conv/bf16_vectors.h"
+#include "lrf/autoencoder/conv/winograd_conv.h"
 #include "lrf/core/error.h"
 
 namespace lrf {

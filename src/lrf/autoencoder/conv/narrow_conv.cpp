@@ -1,4 +1,4 @@
-#include "lrf/autoencoder/narrow_conv.h"
+#include "lrf/autoencoder/conv/narrow_conv.h"
 
 #include <algorithm>
 #include <cstring>
@@ -7,8 +7,8 @@
 #include <ATen/ATen.h>
 #include <ATen/Parallel.h>
 
-#include "lrf/autoencoder/bf16_vectors.h"
-#include "lrf/autoencoder/conv_destination.h"
+#include "lrf/autoencoder/conv/bf16_vectors.h"
+#include "lrf/autoencoder/conv/conv_destination.h"
 #include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 

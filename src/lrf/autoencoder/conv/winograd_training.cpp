@@ -1,4 +1,4 @@
-#include "lrf/autoencoder/winograd_training.h"
+#include "lrf/autoencoder/conv/winograd_training.h"
 
 #include <cstdint>
 
@@ -6,8 +6,8 @@
 #include <ATen/Parallel.h>
 #include <torch/autograd.h>
 
-#include "lrf/autoencoder/winograd_conv.h"
-#include "lrf/autoencoder/winograd_weight_gradient.h"
+#include "lrf/autoencoder/conv/winograd_conv.h"
+#include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/core/error.h"
 
 namespace lrf {

@@ -1,7 +1,7 @@
-#include "lrf/autoencoder/winograd_tiles.h"
+#include "lrf/autoencoder/conv/winograd_tiles.h"
 
 #if defined(__x86_64__)
-#include "lrf/autoencoder/bf16_vectors.h"
+#include "lrf/autoencoder/conv/bf16_vectors.h"
 
 namespace lrf::winograd {
 namespace {

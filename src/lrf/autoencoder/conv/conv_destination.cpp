@@ -1,4 +1,4 @@
-#include "lrf/autoencoder/conv_destination.h"
+#include "lrf/autoencoder/conv/conv_destination.h"
 
 #include <ATen/ATen.h>
 
