@@ -1,5 +1,7 @@
 #include "lrf/autoencoder/conv/conv_destination.h"
 
+#include <algorithm>
+
 #include <ATen/ATen.h>
 
 #include "lrf/core/error.h"
@@ -21,6 +23,15 @@ at::Tensor conv_destination(const std::string& who, const at::Tensor& input, con
     fail(who + ": the residual shares memory with the input");
   }
   return residual;
+}
+
+std::vector<float> conv_bias(const std::string& who, const at::Tensor& bias, int64_t outputs) {
+  std::vector<float> out(static_cast<size_t>(outputs), 0.f);
+  if (!bias.defined()) return out;
+  if (bias.dim() != 1 || bias.size(0) != outputs) fail(who + ": bias must be [O], got " + c10::str(bias.sizes()));
+  const at::Tensor b = bias.detach().to(at::kFloat).contiguous();
+  std::copy(b.data_ptr<float>(), b.data_ptr<float>() + outputs, out.begin());
+  return out;
 }
 
 }  // namespace lrf

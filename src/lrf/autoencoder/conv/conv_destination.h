@@ -1,5 +1,6 @@
 #pragma once
-// Where an inference convolution writes: a new channels-last tensor, or the residual it adds to.
+// Where an inference convolution writes (a new channels-last tensor, or the residual it adds to), and the
+// bias it adds.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -13,5 +14,8 @@ namespace lrf {
 // `input` (which is still being read while outputs are stored). `who` names the caller in errors.
 at::Tensor conv_destination(const std::string& who, const at::Tensor& input, const at::Tensor& residual,
                             const std::vector<int64_t>& shape);
+
+// `bias` ([outputs], any dtype) as float32, or zeros when it is undefined; `who` names the caller in errors.
+std::vector<float> conv_bias(const std::string& who, const at::Tensor& bias, int64_t outputs);
 
 }  // namespace lrf

@@ -128,12 +128,7 @@ NarrowConv3x3::NarrowConv3x3(const at::Tensor& weight, const at::Tensor& bias) {
   const at::Tensor w = weight.detach().to(at::kFloat).permute({2, 3, 0, 1}).contiguous().to(at::kBFloat16);
   const auto* src = reinterpret_cast<const uint16_t*>(w.data_ptr());
   weights_.assign(src, src + w.numel());
-  bias_.assign(static_cast<size_t>(outputs_), 0.f);
-  if (bias.defined()) {
-    if (bias.dim() != 1 || bias.size(0) != outputs_) fail("NarrowConv3x3: bias must be [O], got " + shape_of(bias));
-    const at::Tensor b = bias.detach().to(at::kFloat).contiguous();
-    std::copy(b.data_ptr<float>(), b.data_ptr<float>() + outputs_, bias_.begin());
-  }
+  bias_ = conv_bias("NarrowConv3x3", bias, outputs_);
 }
 
 at::Tensor NarrowConv3x3::forward(const at::Tensor& input, bool relu, const at::Tensor& residual) const {

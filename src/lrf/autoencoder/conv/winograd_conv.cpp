@@ -174,12 +174,7 @@ WinogradConv3x3::WinogradConv3x3(const at::Tensor& weight, const at::Tensor& bia
         }
     }
   });
-  bias_.assign(static_cast<size_t>(outputs_), 0.f);
-  if (bias.defined()) {
-    if (bias.dim() != 1 || bias.size(0) != outputs_) fail("WinogradConv3x3: bias must be [O], got " + shape_of(bias));
-    const at::Tensor b = bias.detach().to(at::kFloat).contiguous();
-    std::copy(b.data_ptr<float>(), b.data_ptr<float>() + outputs_, bias_.begin());
-  }
+  bias_ = conv_bias("WinogradConv3x3", bias, outputs_);
 }
 
 at::Tensor WinogradConv3x3::forward(const at::Tensor& input, bool relu, const at::Tensor& residual) const {
