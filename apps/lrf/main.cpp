@@ -61,7 +61,8 @@ int main(int argc, char** argv) {
                  "AVX512_BF16 or AMX; fp32 elsewhere). Default: $LRF_PRECISION if set, else auto. In bf16 on "
                  "AVX512_BF16, the 3x3 convolutions run as Winograd's: F(3x3, 3x3) in inference and in Stage I / III "
                  "training's forward and input gradient ($LRF_WINOGRAD_TILE=2: F(2x2, 3x3)), F(2x2, 3x3) in "
-                 "their weight gradient ($LRF_WINOGRAD=0: oneDNN's direct convolution instead)");
+                 "their weight gradient ($LRF_WINOGRAD=0: oneDNN's direct convolution instead); in inference the "
+                 "decoder's last one, to 3 outputs, runs in a kernel of its own ($LRF_FUSED_CONV=0: oneDNN's)");
   app.add_flag("--quiet,-q", quiet, "Print only warnings and errors");
   app.add_flag("--log-json", log_json, "Print progress and log messages as JSON lines on stderr");
   app.require_subcommand(1);
