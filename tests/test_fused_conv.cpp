@@ -342,14 +342,15 @@ TEST(NarrowConv3x3, FusedConv2dTakesItInBf16AndRefusesWhatItCannotRun) {
   EXPECT_NE(lrf::test::error_of([&] { narrow.forward(c.x16.to(at::kFloat), false); }).find("bf16"), std::string::npos);
   if (!lrf::NarrowConv3x3::available()) return;
   const lrf::FusedConv2d fused(c.w, c.b, 1, 1);
-  EXPECT_STREQ(fused.bf16_kernel(), "narrow");
+  EXPECT_EQ(fused.bf16_kernel(), lrf::FusedConv2d::Kernel::narrow);
   EXPECT_TRUE(torch::equal(fused.forward(c.x16, false), narrow.forward(c.x16, false)));
-  EXPECT_STREQ(lrf::FusedConv2d(torch::randn({4, 64, 3, 3}), {}, 1, 1).bf16_kernel(), "onednn");
-  EXPECT_STREQ(lrf::FusedConv2d(torch::randn({3, 64, 3, 3}), {}, 2, 1).bf16_kernel(), "onednn");  // strided
+  EXPECT_EQ(lrf::FusedConv2d(torch::randn({4, 64, 3, 3}), {}, 1, 1).bf16_kernel(), lrf::FusedConv2d::Kernel::onednn);
+  EXPECT_EQ(lrf::FusedConv2d(torch::randn({3, 64, 3, 3}), {}, 2, 1).bf16_kernel(),
+            lrf::FusedConv2d::Kernel::onednn);  // strided
   // Switched off (as on a CPU without BF16): oneDNN's direct convolution.
   lrf::test::ScopedEnv off("LRF_FUSED_CONV", "0");
   EXPECT_FALSE(lrf::NarrowConv3x3::available());
-  EXPECT_STREQ(fused.bf16_kernel(), "onednn");
+  EXPECT_EQ(fused.bf16_kernel(), lrf::FusedConv2d::Kernel::onednn);
   const at::Tensor direct = fused.forward(c.x16, false);
   EXPECT_LT(relative_error(direct, reference_conv(c.x16.to(at::kFloat), c.w, c.b, 1, 1, {}, false)).rms, kDirectRms);
   EXPECT_NE(lrf::test::error_of([&] { narrow.forward(c.x16, false); }).find("AVX512_BF16"), std::string::npos);

@@ -1,7 +1,8 @@
 #pragma once
-// AVX-512 loads and stores of bf16 channel vectors, shared by the Winograd kernels (winograd_conv.cpp,
-// winograd_weight_gradient.cpp). Each function is compiled for AVX512_BF16 on its own, so the build
-// stays generic; callers check WinogradConv3x3::available() before running them.
+// AVX-512 loads and stores of bf16 channel vectors, and the target attribute of the project's own bf16
+// kernels (the Winograd ones and the narrow one). Each function is compiled for AVX512_BF16 on its own, so
+// the build stays generic; callers check that the CPU has it (WinogradConv3x3::available(),
+// NarrowConv3x3::available()) before running them.
 #include <cstdint>
 
 #if defined(__x86_64__)

@@ -106,22 +106,21 @@ FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int s
   if (stride < 1 || padding < 0) fail("FusedConv2d: stride must be positive and padding non-negative");
   impl_->stride = stride;
   impl_->padding = padding;
-  if (impl_->kh == 3 && impl_->kw == 3 && stride == 1 && padding == 1 &&
-      WinogradConv3x3::takes(impl_->outputs, impl_->inputs) && WinogradConv3x3::available()) {
+  const bool same_3x3 = impl_->kh == 3 && impl_->kw == 3 && stride == 1 && padding == 1;
+  if (same_3x3 && WinogradConv3x3::takes(impl_->outputs, impl_->inputs) && WinogradConv3x3::available()) {
     impl_->winograd = std::make_unique<WinogradConv3x3>(w, bias, false, WinogradConv3x3::chosen_tiles());
   }
-  if (impl_->kh == 3 && impl_->kw == 3 && stride == 1 && padding == 1 &&
-      NarrowConv3x3::takes(impl_->outputs, impl_->inputs) && NarrowConv3x3::available()) {
+  if (same_3x3 && NarrowConv3x3::takes(impl_->outputs, impl_->inputs) && NarrowConv3x3::available()) {
     impl_->narrow = std::make_unique<NarrowConv3x3>(w, bias);
   }
 }
 
 FusedConv2d::~FusedConv2d() = default;
 
-const char* FusedConv2d::bf16_kernel() const {
-  if (impl_->winograd && WinogradConv3x3::available()) return "winograd";
-  if (impl_->narrow && NarrowConv3x3::available()) return "narrow";
-  return "onednn";
+FusedConv2d::Kernel FusedConv2d::bf16_kernel() const {
+  if (impl_->winograd && WinogradConv3x3::available()) return Kernel::winograd;
+  if (impl_->narrow && NarrowConv3x3::available()) return Kernel::narrow;
+  return Kernel::onednn;
 }
 
 at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Tensor& residual) const {
@@ -135,9 +134,9 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
     fail("FusedConv2d: input " + shape_of(input) + " is smaller than the kernel");
   }
   if (dtype == at::kBFloat16) {
-    const std::string kernel = bf16_kernel();
-    if (kernel == "winograd") return m.winograd->forward(input, relu, residual);
-    if (kernel == "narrow") return m.narrow->forward(input, relu, residual);
+    const Kernel kernel = bf16_kernel();
+    if (kernel == Kernel::winograd) return m.winograd->forward(input, relu, residual);
+    if (kernel == Kernel::narrow) return m.narrow->forward(input, relu, residual);
   }
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const bool sum = residual.defined();

@@ -30,9 +30,10 @@ class FusedConv2d {
   // values are consumed) and it is returned. Thread-safe; each new input shape builds (and keeps) its own oneDNN primitive.
   at::Tensor forward(const at::Tensor& input, bool relu, const at::Tensor& residual = {}) const;
 
-  // Which kernel a bf16 input runs on now: "winograd" (winograd_conv.h), "narrow" (narrow_conv.h) or
-  // "onednn" (direct).
-  const char* bf16_kernel() const;
+  // Which kernel a bf16 input runs on now: Winograd's (winograd_conv.h), the narrow one (narrow_conv.h)
+  // or oneDNN's direct one. forward() dispatches on it.
+  enum class Kernel { winograd, narrow, onednn };
+  Kernel bf16_kernel() const;
 
  private:
   struct Impl;
