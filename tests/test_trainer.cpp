@@ -149,7 +149,11 @@ TEST(Trainer, CoarsePhaseTrainsOnReducedViewsThenOnFullOnes) {
   std::printf("short fit with a coarse phase: held-out PSNR %.2f dB\n", after);
   EXPECT_GT(after, 28.0);  // 34.9 dB measured; the plain short fit's bound
 
-  options.objective = [](const torch::Tensor& r, int, int64_t) { return ObjectiveValue{r.sum(), 0}; };
+  options.objective = [](const torch::Tensor& r, int, int64_t) {
+    ObjectiveValue v;
+    v.loss = r.sum();
+    return v;
+  };
   EXPECT_THROW(Trainer(scene.train, start_field(3), 3.0, options), lrf::Error);
 }
 

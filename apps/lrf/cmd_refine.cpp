@@ -65,6 +65,11 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   cmd->add_option("--lambda-ssim", o->lambda_ssim, "Weight of the D-SSIM term of the image loss")->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the view order and window positions")->capture_default_str();
   cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")->capture_default_str();
+  cmd->add_option("--score-every", o->score_every,
+                  "Every N steps (and at the last), score the field so far on the scene's test views into "
+                  "OUT/curve.csv: PSNR, SSIM, MS-SSIM and FLIP against the wall time of encode + Stage II + "
+                  "refinement so far (the scoring's own time left out; 0 = off). Changes nothing in the field")
+      ->capture_default_str();
   cmd->add_flag("--resume", o->resume, "Continue OUT from its last checkpoint (same options; --steps may grow when --lr-final is 1)");
   cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
   lrf::cli::on_run(cmd, [o] {

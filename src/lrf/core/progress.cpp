@@ -23,6 +23,12 @@ double Progress::elapsed_seconds() const {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
 }
 
+void Progress::exclude(double seconds) {
+  const auto d = std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(seconds));
+  start_ += d;
+  last_print_ += d;
+}
+
 double Progress::rate() const {
   double t = elapsed_seconds();
   long done = last_step_ - first_step_;

@@ -16,6 +16,9 @@ class Progress {
   void update(long step, const std::vector<std::pair<std::string, double>>& metrics = {});
   void finish(const std::vector<std::pair<std::string, double>>& metrics = {});
   double elapsed_seconds() const;
+  // Leaves out of the elapsed time, rate and time left `seconds` just spent on something else (scoring a
+  // field at a checkpoint, say).
+  void exclude(double seconds);
   // Steps per second measured since construction (excluding steps done before a resume).
   double rate() const;
   double eta_seconds(long step) const;

@@ -70,7 +70,8 @@ void FeatureLiftTraining::attach(splat::TrainerOptions& to, std::vector<at::Tens
                                                                                int64_t step) {
     const at::Tensor& target = targets.at(static_cast<size_t>(view));
     const at::Tensor lifted = lift_.apply(rendered);
-    splat::ObjectiveValue v{splat::photometric_loss(lifted, target, lambda_ssim)};
+    splat::ObjectiveValue v;
+    v.loss = splat::photometric_loss(lifted, target, lambda_ssim);
     if (psnr_every > 0 && step % psnr_every == 0) v.psnr = splat::psnr(lifted.detach(), target);
     return v;
   };

@@ -1,5 +1,6 @@
 #include "lrf/refine/refine.h"
 
+#include <chrono>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -18,7 +19,9 @@
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_scoring.h"
 #include "lrf/refine/decoded_loss.h"
+#include "lrf/splat/render_field.h"
 #include "lrf/splat/run/train_run.h"
 #include "lrf/splat/train/loss.h"
 
@@ -66,6 +69,12 @@ std::pair<int, int> jitter_of_step(const RefineOptions& o, int64_t step) {
   return {dx, pixels(rng)};
 }
 
+// The wall time of what the refined field's source took: encoding the training views and Stage II.
+double source_seconds(const nlohmann::json& source_config) {
+  const nlohmann::json result = source_config.value("result", nlohmann::json::object());
+  return result.value("seconds", 0.0) + result.value("encode_seconds", 0.0);
+}
+
 }  // namespace
 
 std::string refine_description(const RefineOptions& o) {
@@ -90,13 +99,14 @@ nlohmann::json refine_options_json(const RefineOptions& o) {
           {"decoder_lr", o.decoder_lr}, {"lambda_latent", o.lambda_latent}, {"jitter", o.jitter},
           {"densify_until", o.densify_until}, {"densify_interval", o.densify_interval},
           {"densify_grad", o.densify_grad}, {"seed", o.seed},
-          {"checkpoint_every", o.checkpoint_every}, {"resume", o.resume}, {"force", o.force}};
+          {"checkpoint_every", o.checkpoint_every}, {"score_every", o.score_every}, {"resume", o.resume},
+          {"force", o.force}};
 }
 
 nlohmann::json refine_resume_key(const RefineOptions& o) {
   nlohmann::json j = refine_options_json(o);
   // A decaying schedule depends on the run's length: then --steps may not change on resume.
-  for (const char* k : {"checkpoint_every", "resume", "force", "out"}) j.erase(k);
+  for (const char* k : {"checkpoint_every", "score_every", "resume", "force", "out"}) j.erase(k);
   if (o.lr_final == 1) j.erase("steps");
   j["run"] = canonical_path(o.run);
   return j;
@@ -183,10 +193,20 @@ RefineResult refine_latent_field(const RefineOptions& o) {
     std::mt19937_64 rng(window_seed(o.seed, step));
     const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
     const auto [dx, dy] = jitter_of_step(o, step);
-    DecodedLoss d = decoded_loss(*ae, src.range, rendered, image, win, o.lambda_ssim, dx, dy);
+    // The decoder's backward runs here, down to the rendered latent, so that the step's profile tells the
+    // decoder's share from the field's; the trainer carries the latent's gradient on into the Gaussians.
+    const torch::Tensor latent = rendered.detach().requires_grad_(true);
+    DecodedLoss d = decoded_loss(*ae, src.range, latent, image, win, o.lambda_ssim, dx, dy);
     torch::Tensor loss = d.loss;
-    if (o.lambda_latent > 0) loss = loss + o.lambda_latent * (rendered - anchors[static_cast<size_t>(view)]).abs().mean();
-    return ObjectiveValue{loss, psnr(d.decoded, d.target)};
+    if (o.lambda_latent > 0) loss = loss + o.lambda_latent * (latent - anchors[static_cast<size_t>(view)]).abs().mean();
+    ObjectiveValue value;
+    value.psnr = psnr(d.decoded.detach(), d.target);
+    const auto t0 = std::chrono::steady_clock::now();
+    loss.backward();
+    value.backward_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    value.loss = loss.detach();
+    value.rendered_grad = latent.grad();
+    return value;
   };
   if (o.jitter > 0) {
     to.camera_of_step = [&](const Camera& camera, int, int64_t step) {
@@ -233,6 +253,29 @@ RefineResult refine_latent_field(const RefineOptions& o) {
       const auto meta = decoder_adam->load(adapted_checkpoint);
       if (meta.count("lrf_resume_key") == 0 || meta.at("lrf_resume_key") != refine_resume_key(o).dump())
         fail(adapted_checkpoint, "was written by another refinement (other options)");
+    };
+  }
+  if (o.score_every > 0) {
+    if (src.scene.test_indices.empty()) fail(o.run, "--score-every: the scene has no test views to score");
+    const double before = source_seconds(src.config);
+    ro.score_every = o.score_every;
+    ro.score_header = "step,seconds,refine_seconds,psnr,ssim,ms_ssim,flip,gaussians";
+    ro.score = [&, before](int64_t, double refine_seconds) {
+      LatentScoring scoring;
+      scoring.scene = &src.scene;
+      scoring.range = &src.range;
+      scoring.autoencoder = ae.get();
+      scoring.autoencoder_identity = autoencoder_identity(src.autoencoder, src.encoder);
+      const Gaussians field = trainer.export_gaussians();
+      scoring.render = [&](int view) {
+        return render_field(field, latent_camera(src.scene.views[static_cast<size_t>(view)].camera), src.render).image;
+      };
+      const nlohmann::json m = score_latent_test_views(scoring);
+      std::ostringstream row;
+      row << before + refine_seconds << "," << refine_seconds << "," << m.value("psnr", 0.0) << ","
+          << m.value("ssim", 0.0) << "," << m.value("ms_ssim", 0.0) << "," << m.value("flip", 0.0) << ","
+          << field.size();
+      return row.str();
     };
   }
   auto summary = run_training(trainer, ro);

@@ -56,6 +56,10 @@ struct RefineOptions {
   double densify_grad = 2e-4;
   uint64_t seed = 0;
   int64_t checkpoint_every = 500;
+  // > 0: every this many steps (and at the last) the field so far is scored on the scene's test views,
+  // decoded by the decoder so far, into OUT/curve.csv: quality against the wall time of the whole row
+  // (encode + Stage II + refinement so far; the scoring's own time is left out). Changes nothing else.
+  int64_t score_every = 0;
   bool resume = false, force = false;
 };
 

@@ -1,5 +1,6 @@
 #include "lrf/splat/run/train_run.h"
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -19,9 +20,10 @@ namespace lrf::splat {
 namespace {
 
 constexpr const char* kLogHeader =
-    "step,loss,psnr,gaussians,elapsed_s,render_ms,loss_ms,backward_ms,adam_ms,densify_ms\n";
+    "step,loss,psnr,gaussians,elapsed_s,render_ms,loss_ms,backward_ms,adam_ms,densify_ms,loss_backward_ms,"
+    "extra_adam_ms\n";
 
-// The rows of an earlier log up to `step` (a resumed run continues it).
+// The rows of an earlier log up to `step` (a resumed run continues it); none when there is no such file.
 std::string log_rows_until(const std::string& path, int64_t step) {
   std::ifstream in(path);
   std::string line, rows;
@@ -71,12 +73,15 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
     Gaussians field = trainer.export_gaussians();
     write_ply(ply_path, o.exported ? o.exported(std::move(field)) : field);
   };
-  std::string log_rows;
+  const std::string score_path = (fs::path(o.out) / o.score_file).string();
+  const bool scoring = o.score_every > 0 && o.score;
+  std::string log_rows, score_rows;
   double elapsed_before = 0;
   if (o.resume) {
     trainer.load_checkpoint(ckpt);
     if (o.load_extra) o.load_extra();
     log_rows = log_rows_until(log_path, trainer.steps_done());
+    if (scoring) score_rows = log_rows_until(score_path, trainer.steps_done());
     if (!log_rows.empty()) {
       auto last = log_rows.substr(log_rows.rfind('\n', log_rows.size() - 2) + 1);
       // Column 5 is the elapsed time.
@@ -95,6 +100,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.
   auto save = [&]() {
     write_file_atomic(log_path, kLogHeader + log_rows);
+    if (scoring) write_file_atomic(score_path, o.score_header + "\n" + score_rows);
     trainer.save_checkpoint(ckpt);
     if (o.save_extra) o.save_extra();
     write_field();
@@ -115,6 +121,8 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
       time_sum.backward += r.timings.backward;
       time_sum.optimizer += r.timings.optimizer;
       time_sum.densify += r.timings.densify;
+      time_sum.loss_backward += r.timings.loss_backward;
+      time_sum.extra_optimizer += r.timings.extra_optimizer;
       if (!std::isnan(r.psnr)) last_psnr = r.psnr;
       summary.last_loss = r.loss;
       if (r.densified)
@@ -126,13 +134,22 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
         row << r.step << "," << std::setprecision(6) << loss_sum / double(loss_count) << ","
             << std::setprecision(4) << last_psnr << "," << r.gaussians << "," << std::setprecision(6)
             << elapsed_before + progress.elapsed_seconds() << std::setprecision(4);
-        for (double t : {time_sum.render, time_sum.loss, time_sum.backward, time_sum.optimizer, time_sum.densify})
+        for (double t : {time_sum.render, time_sum.loss, time_sum.backward, time_sum.optimizer, time_sum.densify,
+                         time_sum.loss_backward, time_sum.extra_optimizer})
           row << "," << t / double(loss_count);
         row << "\n";
         log_rows += row.str();
         loss_sum = 0;
         loss_count = 0;
         time_sum = StepTimings();
+      }
+      if (scoring && (r.step % o.score_every == 0 || trainer.done())) {
+        const auto t0 = std::chrono::steady_clock::now();
+        score_rows += std::to_string(r.step) + "," + o.score(r.step, elapsed_before + progress.elapsed_seconds()) + "\n";
+        // Written at once, so that a curve can be watched as it grows; a resumed run drops the rows past its
+        // checkpoint.
+        write_file_atomic(score_path, o.score_header + "\n" + score_rows);
+        progress.exclude(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       }
       progress.update(r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}});
       if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();

@@ -37,6 +37,12 @@ struct RunOptions {
   // What point_cloud.ply holds of the trained field (e.g. without channels that only guided training);
   // unset: the field as the trainer exports it. Checkpoints keep the whole field either way.
   std::function<Gaussians(Gaussians)> exported;
+  // Every score_every steps and at the last one, score(step, elapsed seconds) gives one row of
+  // OUT/<score_file> (a CSV whose header, score_header, names the step first), written at once; a resumed
+  // run keeps the rows up to its checkpoint. The time spent scoring counts neither in the elapsed time nor in the progress's rate.
+  int64_t score_every = 0;
+  std::string score_file = "curve.csv", score_header;
+  std::function<std::string(int64_t step, double elapsed_seconds)> score;
 };
 
 struct RunSummary {

@@ -136,23 +136,31 @@ StepResult Trainer::step() {
   r.timings.render = ms_since(t0);
 
   t0 = Clock::now();
-  torch::Tensor loss;
+  torch::Tensor loss, rendered_grad;
   if (options_.objective) {
     ObjectiveValue v = options_.objective(out.image, view_index, step);
     loss = v.loss;
     r.psnr = v.psnr;
+    rendered_grad = v.rendered_grad;
+    r.timings.loss_backward = v.backward_ms;
   } else {
     loss = photometric_loss(out.image, view.target, options_.lambda_ssim);
     if (options_.psnr_every > 0 && step % options_.psnr_every == 0) r.psnr = psnr(out.image, view.target);
   }
   r.loss = loss.item<double>();
-  r.timings.loss = ms_since(t0);
+  r.timings.loss = ms_since(t0) - r.timings.loss_backward;
   if (!std::isfinite(r.loss)) throw TrainingDiverged(step, "loss is " + std::to_string(r.loss));
 
   t0 = Clock::now();
-  loss.backward();
-  if (options_.after_backward) options_.after_backward(step);
+  if (rendered_grad.defined()) {
+    out.image.backward(rendered_grad);
+  } else {
+    loss.backward();
+  }
   r.timings.backward = ms_since(t0);
+  t0 = Clock::now();
+  if (options_.after_backward) options_.after_backward(step);
+  r.timings.extra_optimizer = ms_since(t0);
 
   t0 = Clock::now();
   const auto& sched = options_.schedule;

@@ -36,6 +36,11 @@ struct TrainView {
 struct ObjectiveValue {
   torch::Tensor loss;
   double psnr = std::numeric_limits<double>::quiet_NaN();
+  // Defined when the objective ran its own backward pass (through a decoder, say) down to the render: the
+  // gradient of the loss in the render, which the trainer then carries on into the field. `loss` need not
+  // be differentiable then; backward_ms is how long that pass took (part of the objective's call).
+  torch::Tensor rendered_grad;
+  double backward_ms = 0;
 };
 using Objective = std::function<ObjectiveValue(const torch::Tensor& rendered, int view, int64_t step)>;
 
@@ -70,8 +75,12 @@ struct TrainerOptions {
 };
 
 // Where a step's time went, in milliseconds.
+// loss: the objective's forward (a refinement's decode and image loss); loss_backward: an objective's own
+// backward pass down to the render (ObjectiveValue::rendered_grad); backward: into the field (the whole
+// backward when the objective runs none of its own); optimizer: the Gaussians' Adam; extra_optimizer:
+// TrainerOptions::after_backward (a decoder's Adam).
 struct StepTimings {
-  double render = 0, loss = 0, backward = 0, optimizer = 0, densify = 0;
+  double render = 0, loss = 0, backward = 0, optimizer = 0, densify = 0, loss_backward = 0, extra_optimizer = 0;
 };
 
 struct StepResult {
