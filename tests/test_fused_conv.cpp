@@ -453,6 +453,31 @@ TEST(WinogradTraining, MixedConv2dGradientsWith2x2TilesMatchFloat64) {
   check_mixed_conv_gradients("2");
 }
 
+// A whole decoded view is wider than the 256-pixel tiles that keep oneDNN's AMX weight gradient right
+// (mixed_layers.cpp): Winograd still runs all three passes of it (none of them is oneDNN's), within the
+// same bounds against float64 as a small image.
+TEST(WinogradTraining, ImagesWiderThanTheWeightGradientTilesStayOnWinograd) {
+  if (!lrf::WinogradConv3x3::available()) GTEST_SKIP() << "Winograd not available here";
+  const RelativeError forward = forward_bounds(), weights{kWinogradRms, kWinogradMax};
+  const WinogradCase c = winograd_case(19, {1, 64, 5, 300}, 64);
+  lrf::MixedConv2d conv = layer_of(c);
+  const at::Tensor x16 = c.x16.clone().requires_grad_(true);
+  const at::Tensor y = conv->forward(x16);
+  EXPECT_TRUE(torch::equal(y.detach(), lrf::WinogradConv3x3(c.w, c.b, false, lrf::WinogradConv3x3::chosen_tiles())
+                                           .forward(c.x16, false)));
+  const at::Tensor up = channels_last(torch::randn({1, 64, 5, 300}).to(at::kBFloat16));
+  y.backward(up);
+  const at::Tensor xd = c.x16.to(at::kDouble).requires_grad_(true);
+  const at::Tensor wd = c.w.to(at::kDouble).requires_grad_(true), bd = c.b.to(at::kDouble).requires_grad_(true);
+  at::conv2d(xd, wd, bd, 1, 1).backward(up.to(at::kDouble));
+  for (const auto& [got, want, bound] : std::vector<std::tuple<at::Tensor, at::Tensor, RelativeError>>{
+           {x16.grad(), xd.grad(), forward}, {conv->weight.grad(), wd.grad(), weights}, {conv->bias.grad(), bd.grad(), weights}}) {
+    const RelativeError e = relative_error(got, want);
+    EXPECT_LT(e.rms, bound.rms);
+    EXPECT_LT(e.max, bound.max);
+  }
+}
+
 // A residual block's last convolution: relu(conv(x) + r), the add and the ReLU applied as the
 // convolution stores, and in the backward the ReLU's mask applied as the gradient is read; the residual's
 // gradient is that masked gradient. The mask is the derivative at the computed output, which is what

@@ -28,10 +28,11 @@ class MixedConv2dImpl : public torch::nn::Conv2dImpl {
 };
 TORCH_MODULE(MixedConv2d);
 
-// The zero-padded convolution of `input`, computed on output tiles of at most tile x tile pixels, each
-// from its own window of the input, with weight and bias cast to the input's dtype once per tile. The
-// value is that of at::conv2d; the tiles only bound the size of each call (MixedConv2d uses it for bf16
-// training, where oneDNN's AMX weight gradient of large images is wrong).
+// The zero-padded convolution of `input` (weight and bias cast to the input's dtype), whose gradients are
+// computed on output tiles of at most tile x tile pixels, each from its own window of the input: the
+// value and gradients are those of at::conv2d; the tiles only bound the size of each backward call
+// (MixedConv2d uses it for bf16 training outside Winograd, where oneDNN's AMX weight gradient of large
+// images is wrong). The weight gradient is summed over the tiles in the weight's dtype.
 at::Tensor conv2d_in_tiles(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias,
                            at::IntArrayRef stride, at::IntArrayRef padding, at::IntArrayRef dilation, int64_t groups,
                            int64_t tile);
