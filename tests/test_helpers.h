@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -164,6 +165,15 @@ inline std::vector<double> logged_column(const std::string& log, int column) {
     values.push_back(value);
   }
   return values;
+}
+
+// The column named `name` in the CSV's header; an error naming the file when there is none.
+inline std::vector<double> logged_column(const std::string& log, const std::string& name) {
+  std::istringstream header(logged_header(log));
+  std::string cell;
+  for (int column = 0; std::getline(header, cell, ','); ++column)
+    if (cell == name) return logged_column(log, column);
+  throw std::runtime_error(log + ": no column '" + name + "' in its header");
 }
 
 }  // namespace lrf::test

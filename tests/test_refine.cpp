@@ -84,6 +84,50 @@ TEST(DecoderSplit, TinyWithoutPoolIsLocalThroughoutAndKlIsNotLocal) {
   EXPECT_EQ(kl.decode_local_reach(), -1);
 }
 
+// decode_local_window computes each layer only where the layers after it need it (tiny_window_decode.cpp):
+// its pixels are the whole decode's, and so is the gradient it sends back into the latent, for windows
+// inside the image, against its corners and edges, and for the whole image. float32 with random weights
+// of TAEF2's layout: oneDNN may sum another size's convolution in another order, which moves a value by
+// float rounding (~1e-6 of values of order 1 after 20 layers); a misplaced cut moves it by far more.
+TEST(DecoderSplit, WindowDecodeEqualsTheWholeDecodeAndItsGradient) {
+  torch::manual_seed(5);
+  lrf::TinyAutoencoder ae(8, true);
+  const int reach = ae.decode_local_reach();
+  const at::Tensor z = torch::randn({1, 8, 24, 28});
+  struct Case {
+    int64_t y, x, h, w;
+  };
+  for (const Case& c : std::vector<Case>{{10, 11, 3, 4}, {0, 0, 4, 7}, {18, 21, 6, 7}, {0, 0, 24, 28}, {11, 0, 3, 28}}) {
+    SCOPED_TRACE("window at " + std::to_string(c.y) + "," + std::to_string(c.x) + " of " + std::to_string(c.h) + "x" +
+                 std::to_string(c.w));
+    const int64_t y0 = std::max<int64_t>(0, c.y - reach), x0 = std::max<int64_t>(0, c.x - reach);
+    const int64_t y1 = std::min<int64_t>(24, c.y + c.h + reach), x1 = std::min<int64_t>(28, c.x + c.w + reach);
+    const at::Tensor weights = torch::randn({1, 3, 8 * c.h, 8 * c.w});
+    const at::Tensor zw = z.clone().requires_grad_(true);
+    const at::Tensor part = ae.decode_local_window(ae.decode_global(zw).narrow(2, y0, y1 - y0).narrow(3, x0, x1 - x0),
+                                                   {c.y - y0, c.x - x0, c.h, c.w}, {y0 == 0, x0 == 0, y1 == 24, x1 == 28});
+    ASSERT_EQ(part.sizes(), (std::vector<int64_t>{1, 3, 8 * c.h, 8 * c.w}));
+    (part * weights).sum().backward();
+    const at::Tensor zd = z.clone().requires_grad_(true);
+    const at::Tensor whole = ae.decode_unclamped(zd).narrow(2, 8 * c.y, 8 * c.h).narrow(3, 8 * c.x, 8 * c.w);
+    (whole * weights).sum().backward();
+    const double scale = whole.abs().max().item<double>();
+    EXPECT_LT((part - whole).abs().max().item<double>(), 2e-5 * scale);
+    const double grad_scale = zd.grad().abs().max().item<double>();
+    EXPECT_GT(grad_scale, 0);
+    EXPECT_LT((zw.grad() - zd.grad()).abs().max().item<double>(), 2e-5 * grad_scale);
+  }
+  // A window with less context than the decoder reaches on a side inside the image is refused.
+  const at::Tensor f = ae.decode_global(z);
+  EXPECT_NE(lrf::test::error_of([&] {
+              ae.decode_local_window(f.narrow(2, 2, 20).narrow(3, 2, 20), {3, 9, 4, 4}, {false, false, false, false});
+            }).find("context"),
+            std::string::npos);
+  EXPECT_NE(lrf::test::error_of([&] { ae.decode_local_window(f, {22, 0, 4, 4}, {true, true, true, true}); })
+                .find("does not lie inside"),
+            std::string::npos);
+}
+
 TEST(DecodedLoss, WindowsStayInsideAndTheLossComparesTheMatchingPixels) {
   std::mt19937_64 rng(1);
   for (int k = 0; k < 200; ++k) {
@@ -234,7 +278,9 @@ lrf::test::TempDir* RefineRun::dir_ = nullptr;
 // forgives small shifts; DecodedLoss above catches any shift exactly), with no gradient 0 %.
 TEST_F(RefineRun, RefinementLowersTheImageLossOnHeldOutViews) {
   const double before = held_out_l1(*dir_ / "field");
-  auto r = lrf::refine_latent_field(options("refined", 60));
+  auto o = options("refined", 60);
+  o.score_every = 25;
+  auto r = lrf::refine_latent_field(o);
   EXPECT_EQ(r.steps, 60);
   const double after = held_out_l1(*dir_ / "refined");
   std::printf("held-out mean L1 %.4f -> %.4f\n", before, after);
@@ -242,6 +288,18 @@ TEST_F(RefineRun, RefinementLowersTheImageLossOnHeldOutViews) {
   // A latent run like any other: eval works and reports the decoder it was refined through.
   auto m = lrf::evaluate_latent_run(*dir_ / "refined", {});
   EXPECT_EQ(m["decoder"], "stock");
+  // The quality curve: rows at steps 25, 50 and the last, the wall time growing from the source run's, and
+  // the last row scoring the written field as eval does.
+  const std::string curve = *dir_ / "refined/curve.csv";
+  const std::vector<double> steps = lrf::test::logged_column(curve, "step");
+  ASSERT_EQ(steps, (std::vector<double>{25, 50, 60}));
+  const std::vector<double> seconds = lrf::test::logged_column(curve, "seconds");
+  const std::vector<double> refine_seconds = lrf::test::logged_column(curve, "refine_seconds");
+  const auto source = lrf::read_json_file(*dir_ / "field/config.json")["result"];
+  EXPECT_NEAR(seconds[0] - refine_seconds[0],
+              source["seconds"].get<double>() + source["encode_seconds"].get<double>(), 1e-3);
+  EXPECT_LT(refine_seconds[0], refine_seconds[1]);
+  EXPECT_NEAR(lrf::test::logged_column(curve, "psnr").back(), m["psnr"].get<double>(), 1e-3);
   const auto config = lrf::read_json_file(*dir_ / "refined/config.json");
   EXPECT_EQ(config["refine"]["refined_from"], fs::weakly_canonical(*dir_ / "field").string());
   EXPECT_GT(config["result"]["refine_seconds"].get<double>(), 0);

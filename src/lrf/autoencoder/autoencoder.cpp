@@ -61,6 +61,15 @@ at::Tensor Autoencoder::decode_global(const at::Tensor& latents) {
 
 at::Tensor Autoencoder::decode_local(const at::Tensor& features) { return decode_unclamped(features); }
 
+at::Tensor Autoencoder::decode_local_window(const at::Tensor& features, const CellRect& inner, const WindowEdges&) {
+  if (features.dim() != 4 || inner.h < 1 || inner.w < 1 || inner.y < 0 || inner.x < 0 ||
+      inner.y + inner.h > features.size(2) || inner.x + inner.w > features.size(3)) {
+    fail("decode_local_window: the wanted rectangle does not lie inside the window " +
+         std::string(c10::str(features.sizes())));
+  }
+  return decode_local(features).narrow(2, 8 * inner.y, 8 * inner.h).narrow(3, 8 * inner.x, 8 * inner.w);
+}
+
 void Autoencoder::set_precision(Precision p) { precision_ = resolve_precision(p); }
 
 at::Tensor Autoencoder::to_network(const at::Tensor& t) const {

@@ -17,6 +17,16 @@
 
 namespace lrf {
 
+// A rectangle of latent cells: rows [y, y + h), columns [x, x + w).
+struct CellRect {
+  int64_t y = 0, x = 0, h = 0, w = 0;
+};
+
+// Which sides of a window of latent cells lie on the image's own edges.
+struct WindowEdges {
+  bool top = false, left = false, bottom = false, right = false;
+};
+
 class Autoencoder {
  public:
   virtual ~Autoencoder() = default;
@@ -44,6 +54,14 @@ class Autoencoder {
   virtual at::Tensor decode_global(const at::Tensor& latents);
   virtual at::Tensor decode_local(const at::Tensor& features);
   virtual int decode_local_reach() const { return -1; }
+  // The pixels of one rectangle of decode_local's output, computing each layer only where the layers
+  // after it need it: `features` is decode_global's output cut to a window of latent cells, `inner` the
+  // rectangle of cells inside it whose pixels are wanted (relative to the window), `edges` which sides of
+  // the window are the image's own edges (where the zero padding is the whole image's). Returns
+  // [B, 3, 8·inner.h, 8·inner.w], exactly decode_local(features)'s pixels of `inner` when `inner` lies at
+  // least decode_local_reach() cells inside every side that is not an image edge. This default decodes
+  // the whole window and cuts `inner` out of it.
+  virtual at::Tensor decode_local_window(const at::Tensor& features, const CellRect& inner, const WindowEdges& edges);
 
   std::vector<at::Tensor> encoder_parameters();
   std::vector<at::Tensor> decoder_parameters();

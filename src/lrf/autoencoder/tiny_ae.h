@@ -37,6 +37,10 @@ class TinyAutoencoder : public Autoencoder {
   at::Tensor decode_global(const at::Tensor& latents) override;
   at::Tensor decode_local(const at::Tensor& features) override;
   int decode_local_reach() const override { return local_reach_; }
+  // Each layer computed only where the layers after it need it: for a window with an inner rectangle of
+  // n x n cells, the full-resolution layers work on n·8 pixels plus a few, not on the window's
+  // (n + 2·reach)·8 (tiny_window_decode.cpp).
+  at::Tensor decode_local_window(const at::Tensor& features, const CellRect& inner, const WindowEdges& edges) override;
   // Whether inference may run the fused layers of tiny_fused.h (default: fused_conv_enabled()); off, it
   // runs the torch modules. For comparing the two.
   void set_fused_layers(bool on) { fused_on_ = on; }

@@ -2,6 +2,8 @@
 
 #include <torch/torch.h>
 
+#include "lrf/core/error.h"
+
 namespace lrf {
 
 namespace nn = torch::nn;
@@ -34,6 +36,14 @@ at::Tensor TinyBlockImpl::forward(at::Tensor x) {
   at::Tensor h = conv->at<MixedConv2dImpl>(0).forward_with(x, {}, true);
   h = conv->at<MixedConv2dImpl>(2).forward_with(h, {}, true);
   return conv->at<MixedConv2dImpl>(4).forward_with(h, x, true);
+}
+
+at::Tensor TinyBlockImpl::forward_cut(const at::Tensor& x,
+                                      const std::function<at::Tensor(const at::Tensor&, int64_t)>& cut) {
+  if (pool) fail("tiny autoencoder: a block with the group-norm branch needs the whole image, not a window");
+  at::Tensor h = cut(conv->at<MixedConv2dImpl>(0).forward_with(x, {}, true), 1);
+  h = cut(conv->at<MixedConv2dImpl>(2).forward_with(h, {}, true), 1);
+  return cut(conv->at<MixedConv2dImpl>(4).forward_with(h, cut(x, 2), true), 1);
 }
 
 }  // namespace lrf

@@ -49,15 +49,15 @@ DecodedLoss decoded_loss(Autoencoder& ae, const LatentRange& range, const at::Te
   if (shift_x < 0 || shift_y < 0 || shift_x >= 8 * win.w || shift_y >= 8 * win.h)
     fail("decoded_loss: the shift must be at least 0 and smaller than the window");
   const at::Tensor features = ae.decode_global(range.denormalize(normalised).unsqueeze(0));
-  const at::Tensor decoded_window =
-      ae.decode_local(features.narrow(2, win.y0, win.y1 - win.y0).narrow(3, win.x0, win.x1 - win.x0))[0];
+  const CellRect inner{win.y - win.y0, win.x - win.x0, win.h, win.w};
+  const WindowEdges edges{win.y0 == 0, win.x0 == 0, win.y1 == normalised.size(1), win.x1 == normalised.size(2)};
+  const at::Tensor supervised = ae.decode_local_window(
+      features.narrow(2, win.y0, win.y1 - win.y0).narrow(3, win.x0, win.x1 - win.x0), inner, edges)[0];
   // The window's pixels, in the shifted view, start at (8 win.y, 8 win.x); in the image at that minus the
   // shift, so a window at the top or left edge loses the rows and columns the image has no pixels for.
   const int64_t top = std::max<int64_t>(0, shift_y - 8 * win.y), left = std::max<int64_t>(0, shift_x - 8 * win.x);
   DecodedLoss out;
-  out.decoded = decoded_window.narrow(1, 8 * (win.y - win.y0) + top, 8 * win.h - top)
-                    .narrow(2, 8 * (win.x - win.x0) + left, 8 * win.w - left)
-                    .contiguous();
+  out.decoded = supervised.narrow(1, top, 8 * win.h - top).narrow(2, left, 8 * win.w - left).contiguous();
   out.target = image.narrow(1, 8 * win.y - shift_y + top, 8 * win.h - top)
                    .narrow(2, 8 * win.x - shift_x + left, 8 * win.w - left)
                    .contiguous();

@@ -272,9 +272,13 @@ RefineResult refine_latent_field(const RefineOptions& o) {
       };
       const nlohmann::json m = score_latent_test_views(scoring);
       std::ostringstream row;
-      row << before + refine_seconds << "," << refine_seconds << "," << m.value("psnr", 0.0) << ","
-          << m.value("ssim", 0.0) << "," << m.value("ms_ssim", 0.0) << "," << m.value("flip", 0.0) << ","
-          << field.size();
+      row << before + refine_seconds << "," << refine_seconds;
+      // A score the images are too small for (MS-SSIM below its five scales) is null: an empty cell.
+      for (const char* k : {"psnr", "ssim", "ms_ssim", "flip"}) {
+        row << ",";
+        if (m.contains(k) && m[k].is_number()) row << m[k].get<double>();
+      }
+      row << "," << field.size();
       return row.str();
     };
   }
