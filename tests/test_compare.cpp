@@ -141,9 +141,28 @@ TEST(Compare, RefinedRowIsReusedOnlyWithTheSameRefineOptions) {
   lrf::CompareOptions o = tiny_compare(dir / "cmp");
   o.methods = {"latent-refined"};
   o.refine.steps = 3;
+  o.refine.score_every = 2;
   lrf::run_compare(o);
   const fs::path refined = dir / "cmp/latent-refined";
   ASSERT_TRUE(lrf::splat::run_finished(refined.string()));
+  // The row's time is the whole row's: encode, fit and refinement, each also on its own.
+  const auto metrics = lrf::read_json_file((refined / "metrics.json").string());
+  EXPECT_NEAR(metrics["train_seconds"].get<double>(),
+              metrics["encode_seconds"].get<double>() + metrics["fit_seconds"].get<double>() +
+                  metrics["refine_seconds"].get<double>(),
+              1e-6);
+  EXPECT_GT(metrics["refine_seconds"].get<double>(), 0);
+  // Its quality curve (steps 2 and 3) is drawn in the report, beside another run's given with --curve.
+  EXPECT_EQ(lrf::test::logged_column((refined / "curve.csv").string(), "step"), (std::vector<double>{2, 3}));
+  const std::string report = lrf::read_file(dir / "cmp/report.html");
+  EXPECT_NE(report.find("<svg class=\"chart\""), std::string::npos);
+  EXPECT_NE(report.find("latent-refined (this run)"), std::string::npos);
+  lrf::CompareOptions with_curve = o;
+  with_curve.curves = {"the other run=" + (refined / "curve.csv").string()};
+  lrf::run_compare(with_curve);
+  EXPECT_NE(lrf::read_file(dir / "cmp/report.html").find("the other run"), std::string::npos);
+  with_curve.curves = {"no-equals-sign"};
+  EXPECT_NE(lrf::test::error_of([&] { lrf::run_compare(with_curve); }).find("NAME=CSV"), std::string::npos);
   const auto refined_time = fs::last_write_time(refined / "point_cloud.ply");
   lrf::run_compare(o);  // same options: reused
   EXPECT_EQ(fs::last_write_time(refined / "point_cloud.ply"), refined_time);

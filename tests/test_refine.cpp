@@ -408,6 +408,51 @@ TEST_F(RefineRun, AdaptedDecoderIsSavedUsedAndResumedExactly) {
   EXPECT_EQ(lrf::evaluate_latent_run(*dir_ / "adapt_whole", {})["decoder"], run.decoder);
 }
 
+// --decoder-scale 2: only the decoder's layers at up to twice the latent resolution adapt (TAEF2: its
+// first convolution and blocks, the first upsampling's convolution and blocks); the finer ones keep the
+// stock weights while the field is still trained through them.
+TEST_F(RefineRun, DecoderAdaptedUpToAScaleKeepsItsFinerLayers) {
+  auto o = options("adapt_coarse", 6);
+  o.decoder_lr = 1e-4;
+  o.decoder_scale = 2;
+  o.crop = 48;
+  lrf::refine_latent_field(o);
+  auto adapted = lrf::load_autoencoder(taef2(), "", *dir_ / "adapt_coarse/decoder.safetensors");
+  auto stock = lrf::load_autoencoder(taef2());
+  auto da = adapted->decoder_state(), ds = stock->decoder_state();
+  int coarse_changed = 0, fine = 0;
+  for (const auto& item : da) {
+    const int scale = stock->decoder_parameter_scale(item.key());
+    if (scale <= 2) {
+      coarse_changed += !torch::equal(item.value(), ds[item.key()]);
+    } else {
+      ++fine;
+      EXPECT_TRUE(torch::equal(item.value(), ds[item.key()])) << item.key() << " at scale " << scale;
+    }
+  }
+  EXPECT_GT(coarse_changed, 10);
+  EXPECT_GT(fine, 10);
+  // The layers' scales: the first convolution at the latent's, then after each upsampling twice that.
+  EXPECT_EQ(stock->decoder_parameter_scale("1.weight"), 1);
+  EXPECT_EQ(stock->decoder_parameter_scale("7.weight"), 2);
+  EXPECT_EQ(stock->decoder_parameter_scale("13.conv.0.weight"), 4);
+  EXPECT_EQ(stock->decoder_parameter_scale("19.bias"), 8);
+  EXPECT_EQ(stock->decoder_parameters(8).size(), stock->decoder_parameters().size());
+  EXPECT_LT(stock->decoder_parameters(2).size(), stock->decoder_parameters(4).size());
+  EXPECT_LT(stock->decoder_parameters(4).size(), stock->decoder_parameters(8).size());
+  lrf::KLConfig cfg;
+  cfg.ch = 32;
+  lrf::KLAutoencoder kl(cfg);
+  EXPECT_EQ(kl.decoder_parameter_scale("decoder.up.3.block.0.conv1.weight"), 1);
+  EXPECT_EQ(kl.decoder_parameter_scale("decoder.up.3.upsample.conv.weight"), 2);
+  EXPECT_EQ(kl.decoder_parameter_scale("decoder.up.0.block.2.conv2.bias"), 8);
+  EXPECT_EQ(kl.decoder_parameter_scale("decoder.conv_out.weight"), 8);
+  EXPECT_EQ(kl.decoder_parameter_scale("post_quant_conv.weight"), 1);
+  o.decoder_scale = 3;
+  o.out = *dir_ / "adapt_bad";
+  EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(o); }).find("power of two"), std::string::npos);
+}
+
 // --densify-until: the field keeps growing where the image loss's screen-space gradient is large, and
 // such a run resumes exactly (the densification statistics travel in the checkpoint). Without it the
 // field keeps Stage II's Gaussians (the other tests' runs).

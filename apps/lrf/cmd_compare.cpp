@@ -54,6 +54,9 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "feature-gs: features per Gaussian (0: Feature 3DGS's default, half the latent channels, 16 for TAEF2)")
       ->check(CLI::Range(0, lrf::kMaxFeatureDim))
       ->capture_default_str();
+  cmd->add_option("--curve", o->curves,
+                  "NAME=CSV: a quality curve of another run (the curve.csv of lrf refine --score-every) drawn in the "
+                  "report's chart beside this run's latent-refined curve (with --refine-score-every); repeatable");
   cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();

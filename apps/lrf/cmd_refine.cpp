@@ -41,6 +41,11 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
                   "Also adapt the decoder to this scene's training views, with Adam at this rate (0 = frozen); the "
                   "adapted decoder is written to OUT/decoder.safetensors and decodes the refined field")
       ->capture_default_str();
+  cmd->add_option("--decoder-scale", o->decoder_scale,
+                  "With --decoder-lr: adapt only the decoder's layers that work at most this many times the latent "
+                  "resolution (1, 2, 4; 0 or 8 = every layer). The others are trained through but take no weight "
+                  "gradient, the largest part of a whole view's backward")
+      ->capture_default_str();
   cmd->add_option("--lambda-latent", o->lambda_latent,
                   "Weight of an L1 term holding the rendered latent near the encoded training view (normalised "
                   "latent space; 0 = image loss only; needs --jitter 0, as the encoded views are of unshifted cameras)")

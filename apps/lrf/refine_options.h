@@ -28,6 +28,15 @@ inline void add_refine_options(CLI::App* cmd, RefineOptions* o, const std::strin
                   p + "keep cloning / splitting Gaussians on the image loss's gradient until this step (0 = the "
                       "field keeps Stage II's Gaussians)")
       ->capture_default_str();
+  cmd->add_option("--refine-decoder-scale", o->decoder_scale,
+                  p + "adapt only the decoder's layers that work at most this many times the latent resolution "
+                      "(1, 2, 4; 0 or 8 = every layer)")
+      ->capture_default_str();
+  cmd->add_option("--refine-score-every", o->score_every,
+                  p + "every N refinement steps, score the test views into the refined run's curve.csv (PSNR, SSIM, "
+                      "MS-SSIM, FLIP against the wall time of encode + fit + refine so far; 0 = off); changes "
+                      "nothing in the field")
+      ->capture_default_str();
   cmd->add_option("--refine-jitter", o->jitter,
                   p + "shift each step's camera and image by a random 0..N pixels (0 = off, at most 7)")
       ->capture_default_str();

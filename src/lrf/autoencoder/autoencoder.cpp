@@ -18,9 +18,22 @@ void set_trainable(torch::nn::Module& m, bool on) {
 }  // namespace
 
 std::vector<at::Tensor> Autoencoder::encoder_parameters() { return params(encoder_module()); }
-std::vector<at::Tensor> Autoencoder::decoder_parameters() { return params(decoder_module()); }
+std::vector<at::Tensor> Autoencoder::decoder_parameters(int max_scale) {
+  if (max_scale <= 0) return params(decoder_module());
+  std::vector<at::Tensor> out;
+  for (const auto& p : decoder_module().named_parameters(true))
+    if (decoder_parameter_scale(p.key()) <= max_scale) out.push_back(p.value());
+  return out;
+}
+
 void Autoencoder::set_encoder_trainable(bool trainable) { set_trainable(encoder_module(), trainable); }
-void Autoencoder::set_decoder_trainable(bool trainable) { set_trainable(decoder_module(), trainable); }
+
+void Autoencoder::set_decoder_trainable(bool trainable, int max_scale) {
+  for (auto& p : decoder_module().named_parameters(true))
+    p.value().requires_grad_(trainable && (max_scale <= 0 || decoder_parameter_scale(p.key()) <= max_scale));
+}
+
+int Autoencoder::decoder_parameter_scale(const std::string&) const { return 1; }
 
 void Autoencoder::load_encoder(const std::string& path) {
   load_strict(encoder_module(), encoder_keys(load_state_dict(path)), path + " (" + kind() + " encoder)");

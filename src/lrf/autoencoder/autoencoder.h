@@ -64,10 +64,17 @@ class Autoencoder {
   virtual at::Tensor decode_local_window(const at::Tensor& features, const CellRect& inner, const WindowEdges& edges);
 
   std::vector<at::Tensor> encoder_parameters();
-  std::vector<at::Tensor> decoder_parameters();
-  // Freezes or unfreezes one half (requires_grad), for fine-tuning the other.
+  // max_scale > 0: only the parameters of the decoder's layers that work at most max_scale times the
+  // latent resolution (1 = at the latent's, 8 = every layer of a factor-8 decoder).
+  std::vector<at::Tensor> decoder_parameters(int max_scale = 0);
+  // Freezes or unfreezes one half (requires_grad), for fine-tuning the other. A decoder made trainable
+  // with max_scale > 0 keeps its layers above that resolution frozen: training through them still carries
+  // gradients to the latent, without their weight gradients (most of a whole view's backward).
   void set_encoder_trainable(bool trainable);
-  void set_decoder_trainable(bool trainable);
+  void set_decoder_trainable(bool trainable, int max_scale = 0);
+  // How many times the latent resolution the decoder layer holding parameter `name` (a native name, as
+  // decoder_module() names it) works at. Default: 1 for every parameter.
+  virtual int decoder_parameter_scale(const std::string& name) const;
 
   // Replace one half's weights (fine-tuned checkpoints): any format load_state_dict reads, any key
   // layout the model understands. Strict: missing, unexpected or mis-shaped keys are one error.

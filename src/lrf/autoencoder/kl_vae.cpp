@@ -278,6 +278,18 @@ void KLAutoencoder::build() {
 torch::nn::Module& KLAutoencoder::encoder_module() { return *encoder_; }
 torch::nn::Module& KLAutoencoder::decoder_module() { return *decoder_; }
 
+int KLAutoencoder::decoder_parameter_scale(const std::string& name) const {
+  const int levels = static_cast<int>(config_.ch_mult.size());
+  static const std::regex up(R"(^decoder\.up\.(\d+)\.(block|upsample)\..*$)");
+  std::smatch m;
+  if (std::regex_match(name, m, up)) {
+    const int level = std::stoi(m[1].str());
+    return 1 << (levels - 1 - level + (m[2].str() == "upsample" ? 1 : 0));
+  }
+  if (name.rfind("decoder.norm_out.", 0) == 0 || name.rfind("decoder.conv_out.", 0) == 0) return 1 << (levels - 1);
+  return 1;
+}
+
 StateDict KLAutoencoder::encoder_keys(const StateDict& file) const {
   return half(kl_keys_to_ldm(file, static_cast<int>(config_.ch_mult.size())), is_decoder_key);
 }

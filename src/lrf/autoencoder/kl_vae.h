@@ -39,6 +39,9 @@ class KLAutoencoder : public Autoencoder {
   // Posterior moments [B, 2C, h, w]: mean then log-variance (clamped to [-30, 20] as ldm does).
   at::Tensor encode_moments(const at::Tensor& images);
   const KLConfig& config() const { return config_; }
+  // "decoder.up.I....": 2^(levels - 1 - I), its upsampling 2^(levels - I); the output layers the
+  // highest; post_quant_conv, conv_in and mid 1.
+  int decoder_parameter_scale(const std::string& name) const override;
 
  protected:
   torch::nn::Module& encoder_module() override;

@@ -158,6 +158,16 @@ at::Tensor TinyAutoencoder::decode_local(const at::Tensor& features) {
   return from_network(run(*decoder_, decoder_split_, decoder_->size(), to_network(features)));
 }
 
+int TinyAutoencoder::decoder_parameter_scale(const std::string& name) const {
+  std::smatch m;
+  if (!std::regex_match(name, m, kIndexKey)) fail("tiny autoencoder: no decoder layer holds parameter " + name);
+  const size_t layer = std::stoul(m[1].str());
+  int scale = 1;
+  for (size_t i = 0; i < layer && i < decoder_->size(); ++i)
+    if (decoder_->ptr(i)->as<nn::Upsample>()) scale *= 2;
+  return scale;
+}
+
 bool TinyAutoencoder::uses_fused_layers() const {
   return fused_on_ && channels_last() && !at::GradMode::is_enabled();
 }

@@ -41,6 +41,8 @@ class TinyAutoencoder : public Autoencoder {
   // n x n cells, the full-resolution layers work on n·8 pixels plus a few, not on the window's
   // (n + 2·reach)·8 (tiny_window_decode.cpp).
   at::Tensor decode_local_window(const at::Tensor& features, const CellRect& inner, const WindowEdges& edges) override;
+  // 2 to the number of upsamplings before the parameter's layer ("12.weight": 4).
+  int decoder_parameter_scale(const std::string& name) const override;
   // Whether inference may run the fused layers of tiny_fused.h (default: fused_conv_enabled()); off, it
   // runs the torch modules. For comparing the two.
   void set_fused_layers(bool on) { fused_on_ = on; }

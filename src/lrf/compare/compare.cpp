@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <optional>
 
 #include <torch/torch.h>
 
@@ -142,6 +143,26 @@ ReportTable efficiency_table(const CompareOptions& o, const nlohmann::json& all,
     t.rows.push_back(std::move(row));
   }
   return t;
+}
+
+// The test views' PSNR against the wall time of the whole row (encode, fit, refine) of the latent-refined
+// row, when it scored itself as it refined, and of the curves given with --curve.
+std::optional<Chart> quality_chart(const CompareOptions& o) {
+  Chart chart;
+  chart.title = "Test-view PSNR against wall time (encode + fit + refine)";
+  chart.x_label = "wall time of the whole row, s";
+  chart.y_label = "PSNR, dB";
+  const fs::path own = fs::path(o.out) / method_dir("latent-refined") / "curve.csv";
+  if (std::find(o.methods.begin(), o.methods.end(), "latent-refined") != o.methods.end() && fs::exists(own))
+    chart.series.push_back({"latent-refined (this run)", read_csv_series(own.string(), "seconds", "psnr")});
+  for (const auto& c : o.curves) {
+    const size_t eq = c.find('=');
+    if (eq == std::string::npos || eq == 0 || eq + 1 == c.size())
+      fail("compare: --curve takes NAME=CSV (a curve.csv of lrf refine --score-every), got '" + c + "'");
+    chart.series.push_back({c.substr(0, eq), read_csv_series(c.substr(eq + 1), "seconds", "psnr")});
+  }
+  if (chart.series.empty()) return std::nullopt;
+  return chart;
 }
 
 }  // namespace
@@ -361,6 +382,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
                                           : std::string("half as many features as the latent has channels")) +
                        ", rendered at latent resolution, lifted to the latent by a 1x1 convolution trained with them "
                        "on the latent field's targets and loss, decoded.");
+  spec.notes.push_back("train_seconds is the wall time of everything a row needs: the fit, and for the latent rows "
+                       "also the encoding of the training views (as long as reading them from the latent cache took, "
+                       "when they were cached), for latent-refined also its refinement.");
   if (std::find(o.methods.begin(), o.methods.end(), "latent-nerf") != o.methods.end())
     spec.notes.push_back("latent-nerf: a hash-grid NeRF (Instant-NGP's architecture) fitted by volume rendering to the "
                          "same normalised latents as the latent field, decoded the same way (the paper's "
@@ -389,6 +413,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
     }
     spec.views.push_back(rv);
   }
+  if (const std::optional<Chart> chart = quality_chart(o)) spec.charts.push_back(*chart);
   write_html_report((fs::path(o.out) / "report.html").string(), spec);
   nlohmann::json summary = {
       {"methods", all}, {"settings", settings}, {"run", run_record({{"scene", o.scene}, {"iters", o.iters}})}};

@@ -28,6 +28,9 @@ struct CompareOptions {
   InitPointsOptions init_points;  // every method starts from the same points
   RefineOptions refine;  // latent-refined: steps, crop, learning rates (run, out, decoder, seed are set here)
   int feature_dim = 0;   // feature-gs: features per Gaussian (0 = Feature 3DGS's default, half the latent channels)
+  // Quality curves of other runs ("NAME=CSV", a curve.csv of lrf refine --score-every) drawn in the report
+  // beside the latent-refined row's own (with --refine-score-every).
+  std::vector<std::string> curves;
   bool force = false;
 };
 

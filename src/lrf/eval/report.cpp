@@ -193,6 +193,7 @@ std::string html_report(const ReportSpec& spec) {
     html_table(html, {"Summary", spec.summary_header, spec.summary_rows, spec.summary_better});
   }
   for (const auto& table : spec.tables) html_table(html, table);
+  for (const auto& chart : spec.charts) html += "<div class=\"chart\">" + svg_chart(chart) + "</div>\n";
   if (!spec.notes.empty()) {
     html += "<h2>Notes</h2>\n<div class=\"notes\">\n";
     for (const auto& note : spec.notes) html += "<p>" + html_escape(note) + "</p>\n";

@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "lrf/eval/chart.h"
 #include "lrf/eval/table.h"
 
 namespace lrf {
@@ -42,6 +43,7 @@ struct ReportSpec {
   std::vector<Row> summary_rows;
   std::vector<Better> summary_better;  // per column; may be empty (no highlighting)
   std::vector<ReportTable> tables;     // after the summary (e.g. compare's efficiency table)
+  std::vector<Chart> charts;           // after the tables (e.g. quality against wall time)
   std::vector<std::string> notes;      // paragraphs of plain text
   std::vector<ReportView> views;
   // Show pixels as squares when the browser enlarges small images (latent-resolution renders), so that

@@ -41,6 +41,8 @@ void check_options(const RefineOptions& o) {
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
   if (!(o.geometry_lr_scale >= 0)) fail("refine: --geometry-lr-scale must be 0 (frozen geometry) or positive");
   if (!(o.decoder_lr >= 0)) fail("refine: --decoder-lr must be 0 (frozen decoder) or positive");
+  if (o.decoder_scale < 0 || (o.decoder_scale & (o.decoder_scale - 1)) != 0)
+    fail("refine: --decoder-scale must be 0 (every layer) or a power of two (1, 2, 4, 8)");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail("refine: --lambda-ssim must be in [0, 1]");
   if (!(o.lambda_latent >= 0)) fail("refine: --lambda-latent must be 0 or positive");
   if (o.jitter < 0 || o.jitter > 7) fail("refine: --jitter must be in 0..7 pixels (a latent cell is 8)");
@@ -81,7 +83,10 @@ std::string refine_description(const RefineOptions& o) {
   std::ostringstream s;
   s << o.steps << " steps";
   if (o.crop > 0) s << " on " << o.crop << " px windows";
-  if (o.decoder_lr > 0) s << ", decoder adapted at Adam rate " << o.decoder_lr;
+  if (o.decoder_lr > 0) {
+    s << ", decoder adapted at Adam rate " << o.decoder_lr;
+    if (o.decoder_scale > 0) s << " up to " << o.decoder_scale << "x the latent resolution";
+  }
   else s << ", frozen decoder";
   if (o.geometry_lr_scale == 0) s << ", geometry frozen";
   else if (o.geometry_lr_scale != 1) s << ", geometry rates x" << o.geometry_lr_scale;
@@ -96,7 +101,8 @@ nlohmann::json refine_options_json(const RefineOptions& o) {
           {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
           {"position_lr", o.position_lr}, {"geometry_lr_scale", o.geometry_lr_scale},
           {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
-          {"decoder_lr", o.decoder_lr}, {"lambda_latent", o.lambda_latent}, {"jitter", o.jitter},
+          {"decoder_lr", o.decoder_lr}, {"decoder_scale", o.decoder_scale}, {"lambda_latent", o.lambda_latent},
+          {"jitter", o.jitter},
           {"densify_until", o.densify_until}, {"densify_interval", o.densify_interval},
           {"densify_grad", o.densify_grad}, {"seed", o.seed},
           {"checkpoint_every", o.checkpoint_every}, {"score_every", o.score_every}, {"resume", o.resume},
@@ -134,12 +140,13 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   const std::string decoder = o.decoder.empty() ? src.decoder : o.decoder;
   auto ae = load_autoencoder(src.autoencoder, src.encoder, decoder);
   ae->set_encoder_trainable(false);
-  ae->set_decoder_trainable(o.decoder_lr > 0);
+  ae->set_decoder_trainable(o.decoder_lr > 0, o.decoder_scale);
   // An adapted decoder is this run's own, written beside the field at every checkpoint.
   const std::string adapted = fs::absolute(fs::path(o.out) / "decoder.safetensors").lexically_normal().string();
   const std::string adapted_checkpoint = (fs::path(o.out) / "decoder.checkpoint.safetensors").string();
   std::unique_ptr<ParamAdam> decoder_adam;
-  if (o.decoder_lr > 0) decoder_adam = std::make_unique<ParamAdam>(ae->decoder_parameters(), AdamOptions{o.decoder_lr});
+  if (o.decoder_lr > 0)
+    decoder_adam = std::make_unique<ParamAdam>(ae->decoder_parameters(o.decoder_scale), AdamOptions{o.decoder_lr});
   const int reach = ae->decode_local_reach();
 
   // Training views: latent cameras, with the full-resolution images as what the objective compares with.

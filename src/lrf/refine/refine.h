@@ -37,6 +37,10 @@ struct RefineOptions {
   // views); it is saved as OUT/decoder.safetensors and becomes the run's decoder. 0: frozen decoder.
   // The default won on held-out views of dtu-scan37 (see the README's measurements).
   double decoder_lr = 1e-4;
+  // > 0: only the decoder's layers working at most this many times the latent resolution adapt (1, 2, 4;
+  // 8 or 0 = every layer). The layers above it are still trained through, to the field, but take no weight
+  // gradient, which at full resolution is the largest part of a step's backward.
+  int decoder_scale = 0;
   // > 0: the loss also holds the rendered latent near the encoded training view (L1 in the field's
   // normalised latent space, times this weight), so that the field stays a latent field of the scene
   // and not only of the training images' decoded pixels.
