@@ -13,7 +13,7 @@ lrf::cli::CommandRegistration reg(48, [](CLI::App& root) {
       "... Each rank gets RANK, LOCAL_RANK, WORLD_SIZE, MASTER_ADDR=127.0.0.1 and MASTER_PORT (a free port unless "
       "MASTER_PORT is set); lrf commands without --threads get cores / N threads each. Ctrl-C is forwarded to every "
       "rank (twice: killed). When a rank fails the others stop on their own, naming it; the exit status is the first "
-      "failed rank's. On a Slurm cluster use srun instead (see README)");
+      "failed rank's. On a Slurm cluster use srun instead (see docs/distributed.md)");
   auto o = std::make_shared<lrf::LaunchOptions>();
   cmd->add_option("-n,--nproc", o->ranks, "Number of ranks to start")->required();
   cmd->add_option("--master-port", o->master_port, "Rendezvous port (0: $MASTER_PORT, else a free port)")

@@ -364,7 +364,7 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   cmd->add_option("--coarse-factor", o->coarse_factor,
                   "rgb: train the first steps (up to --coarse-until) on the views reduced by this factor in width "
                   "and height (pixels area-averaged, intrinsics scaled), then on the full views. At 2 a coarse step "
-                  "costs about a quarter and the whole run takes less time for some loss of detail (README, 7000 "
+                  "costs about a quarter and the whole run takes less time for some loss of detail (docs/results.md, 7000 "
                   "steps, four scenes: 0.5-0.7x the time, test PSNR 0-0.5 dB lower, SSIM 0.003-0.013 lower). "
                   "The logged PSNR is on the reduced views until then. 1: off")
       ->capture_default_str();

@@ -25,8 +25,8 @@ namespace lrf {
 // Default SH degree of latent fields: degree 1 (4 coefficients per channel). With 32 channels each degree
 // multiplies the feature memory and optimizer work (degree 3: 16x the view-independent field). Degree 1
 // over degree 0 on held-out views: +0.22 dB on fern's validation split, +0.48 dB on ngp-fox, with
-// about 3x the storage; after decoder-aware refinement the two are level (README, "Refining a latent field
-// through the decoder", its paragraph "SH degree of latent fields").
+// about 3x the storage; after decoder-aware refinement the two are level (docs/results.md, "SH degree of
+// latent fields").
 constexpr int kDefaultLatentShDegree = 1;
 // LatentTrainOptions::feature_dim asking for default_feature_dim(latent channels).
 constexpr int kHalfLatentChannels = -1;

@@ -35,7 +35,7 @@ struct RefineOptions {
   double lambda_ssim = 0.2;
   // > 0: the decoder is adapted to this scene with the field (Adam at this rate, on the same training
   // views); it is saved as OUT/decoder.safetensors and becomes the run's decoder. 0: frozen decoder.
-  // The default won on held-out views of dtu-scan37 (see the README's measurements).
+  // The default won on held-out views of dtu-scan37 (docs/results.md).
   double decoder_lr = 1e-4;
   // > 0: only the decoder's layers working at most this many times the latent resolution adapt (1, 2, 4;
   // 8 or 0 = every layer). The layers above it are still trained through, to the field, but take no weight
@@ -50,7 +50,7 @@ struct RefineOptions {
   // Without it a training view is only ever seen at one phase of the latent grid, so detail the field and
   // decoder place between latent cells need not hold for another camera; with jitter 7, at all 64. At most 7.
   // Default 7: +1.84 dB on the held-out views of fern's validation split, where the unjittered run falls
-  // under rgb/8-mip; on beer-can's test views -0.34 dB PSNR, better SSIM, MS-SSIM and FLIP (README).
+  // under rgb/8-mip; on beer-can's test views -0.34 dB PSNR, better SSIM, MS-SSIM and FLIP (docs/results.md).
   int jitter = 7;
   std::string cache_dir;  // latent cache of those encoded views ("" = $LRF_CACHE or ~/.cache/lrf)
   // > 0: Gaussians are still cloned and split (3DGS's rule on the image loss's screen-space gradient)

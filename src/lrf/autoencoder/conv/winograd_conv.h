@@ -26,7 +26,7 @@ class WinogradConv3x3 {
   static bool available();
 
   // Output tiles: F(2x2, 3x3) takes 16 products per 4 outputs; F(3x3, 3x3) takes 25 per 9 (0.69x as many
-  // per output) at about 3x the rounding error, which the decoded images still absorb (README, Speed).
+  // per output) at about 3x the rounding error, which the decoded images still absorb (docs/speed.md).
   enum class Tiles { f2x2, f3x3 };
   // The tiles asked for: winograd_tile() (cpu_features.h), 3x3 unless $LRF_WINOGRAD_TILE=2.
   static Tiles chosen_tiles();
