@@ -170,8 +170,10 @@ TEST(ViewerQueue, DropsStaleRequestsAndServesInOrder) {
 
 namespace {
 
-// Sends raw bytes to the server and returns what it answers (up to 4 KiB; "" when it closes).
-std::string raw_exchange(int port, const std::string& bytes) {
+// Sends raw bytes to the server and returns what it answers (up to 4 KiB; "" when it closes). With
+// `close_write` the socket is half-closed after sending, which cpp-httplib sometimes answers by closing it
+// unanswered: a test that expects an answer sends "Connection: close" and keeps it open instead.
+std::string raw_exchange(int port, const std::string& bytes, bool close_write = true) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
@@ -184,7 +186,7 @@ std::string raw_exchange(int port, const std::string& bytes) {
   timeval tv{10, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
-  ::shutdown(fd, SHUT_WR);
+  if (close_write) ::shutdown(fd, SHUT_WR);
   std::string answer;
   char buf[4096];
   ssize_t n;
@@ -304,6 +306,58 @@ TEST(ViewerServer, ServesPageSceneAndFramesAndRefusesTheRest) {
   EXPECT_EQ(stats.frames, 2);
   EXPECT_GE(stats.rejected, 3);
   server.stop();
+}
+
+// Two Host headers (one of them foreign) used to get 200: the check read one, a proxy may read the other.
+TEST(ViewerServer, RefusesRepeatedHostHeaders) {
+  v::ServeOptions options;
+  options.port = 0;
+  v::ViewerServer server(lrf::FieldFrames::open(lrf::test::tiny_field("rgb")), options);
+  const int port = server.start();
+  for (const std::string hosts : {"Host: 127.0.0.1\r\nHost: evil.example\r\n", "Host: evil.example\r\nHost: 127.0.0.1\r\n",
+                                   "Host: 127.0.0.1\r\nhost: 127.0.0.1\r\n"}) {
+    const std::string answer =
+        raw_exchange(port, "GET /api/scene HTTP/1.1\r\n" + hosts + "Connection: close\r\n\r\n", false);
+    EXPECT_EQ(answer.rfind("HTTP/1.1 400", 0), 0u) << hosts << answer.substr(0, 60);
+  }
+  const std::string one =
+      raw_exchange(port, "GET /api/scene HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n", false);
+  EXPECT_EQ(one.rfind("HTTP/1.1 200", 0), 0u) << one.substr(0, 60);
+}
+
+// Connections that send half a request, or none, hold a connection thread each until they time out: 60 of
+// them made a page's request wait 5-6.5 s behind them (5 s read, 2 s keep-alive timeouts); they are dropped
+// after 1 s now, and the request waits about 1 s.
+TEST(ViewerServer, HalfOpenConnectionsAreDroppedQuickly) {
+  v::ServeOptions options;
+  options.port = 0;
+  v::ViewerServer server(lrf::FieldFrames::open(lrf::test::tiny_field("rgb")), options);
+  const int port = server.start();
+  std::vector<int> idle;
+  for (int k = 0; k < 60; ++k) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_port = htons(static_cast<uint16_t>(port));
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
+    const std::string half = k % 2 ? "GET /api/scene HTTP/1.1\r\nHost: 127" : "";  // or nothing at all
+    ::send(fd, half.data(), half.size(), MSG_NOSIGNAL);
+    idle.push_back(fd);
+    // Paced, so that the server's accept loop (a backlog of 5) takes each one in before the request below.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // each holds a connection thread now
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(30, 0);
+  const auto start = std::chrono::steady_clock::now();
+  auto res = client.Get("/api/scene");
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (int fd : idle) ::close(fd);
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 200);
+  EXPECT_LT(seconds, 3.0) << "a request waited behind 60 idle connections";
+  std::printf("viewer: a request behind 60 half-open connections took %.2f s\n", seconds);
 }
 
 TEST(ViewerServer, LatentFieldFramesAreDecoded) {

@@ -115,6 +115,11 @@ void ViewerServer::Impl::routes() {
       send_error(res, 413, "requests carry no body");
       return httplib::Server::HandlerResponse::Handled;
     }
+    // One Host, as HTTP/1.1 requires: with two, the check below and a proxy in front could each read another.
+    if (req.get_header_value_count("Host") > 1) {
+      send_error(res, 400, "a request names one Host");
+      return httplib::Server::HandlerResponse::Handled;
+    }
     if (loopback && !is_loopback_host(host_name(req.get_header_value("Host")))) {
       send_error(res, 403, "this server answers only requests addressed to the loopback host");
       return httplib::Server::HandlerResponse::Handled;
@@ -163,8 +168,8 @@ void ViewerServer::Impl::routes() {
 
 ViewerServer::ViewerServer(std::unique_ptr<FieldFrames> frames, const ServeOptions& options)
     : impl_(std::make_unique<Impl>()) {
-  if (options.port < 0 || options.port > 65535) fail("--port must be in 0..65535");
-  if (options.max_side < 8 || options.max_side > 8192) fail("--max-side must be in 8..8192");
+  if (options.port < 0 || options.port > 65535) fail_usage("--port must be in 0..65535");
+  if (options.max_side < 8 || options.max_side > 8192) fail_usage("--max-side must be in 8..8192");
   if (options.threads < 2 || options.threads > 1024) fail("the server needs 2..1024 connection threads");
   impl_->frames = std::move(frames);
   impl_->options = options;
@@ -172,11 +177,15 @@ ViewerServer::ViewerServer(std::unique_ptr<FieldFrames> frames, const ServeOptio
   impl_->scene = scene_json(*impl_->frames, impl_->limits).dump();
   const size_t threads = static_cast<size_t>(options.threads);
   impl_->server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
-  // No request has a body; idle connections are closed soon so that they do not hold threads.
+  // No request has a body; idle connections are closed soon so that they do not hold threads: each
+  // connection holds one of the pool's threads while it waits, so 60 silent connections made a page's
+  // request wait 6.5 s behind them at the former 5 s read and 2 s keep-alive timeouts. A page's GET arrives
+  // whole within milliseconds of its connection, and the browser reconnects when a kept-alive one was
+  // closed; 1 s is the shortest keep-alive timeout cpp-httplib has (it counts whole seconds).
   impl_->server.set_payload_max_length(1024);
-  impl_->server.set_read_timeout(5, 0);
+  impl_->server.set_read_timeout(1, 0);
   impl_->server.set_write_timeout(10, 0);
-  impl_->server.set_keep_alive_timeout(2);
+  impl_->server.set_keep_alive_timeout(1);
   impl_->server.set_keep_alive_max_count(1000);
   impl_->routes();
 }
