@@ -82,6 +82,28 @@ TEST(Compare, ReusesFinishedMethodsAndFinishesInterruptedOnesBeforeScoring) {
   EXPECT_LT(flip, 1.0);
 }
 
+// The report describes the methods of its table and no others, marks the columns where lower is better,
+// and names lrf once in its footer (it read "lrf lrf 0.1.0").
+TEST(Compare, ReportDescribesOnlyItsMethods) {
+  lrf::test::TempDir dir("compare_report");
+  lrf::CompareOptions o = tiny_compare(dir / "cmp");
+  o.methods = {"rgb/8"};
+  lrf::run_compare(o);
+  const std::string html = lrf::read_file(dir / "cmp/report.html");
+  const size_t notes = html.find("<h2>Notes</h2>");
+  ASSERT_NE(notes, std::string::npos);
+  const std::string text = html.substr(notes, html.find("</div>", notes) - notes);
+  EXPECT_NE(text.find("rgb/8: RGB 3D Gaussian splatting trained on the views downscaled 8x"), std::string::npos) << text;
+  for (const char* other : {"rgb/8-mip:", "rgb-mip:", "rgb:", "latent:", "latent-refined:", "latent-nerf:", "feature-gs:",
+                            "3DGS-VAE", "Feature 3DGS"}) {
+    EXPECT_EQ(text.find(other), std::string::npos) << other << " in " << text;
+  }
+  EXPECT_NE(html.find("flip <span title=\"lower is better\">&darr;</span>"), std::string::npos);
+  EXPECT_EQ(html.find("psnr <span"), std::string::npos) << "higher is better: no arrow";
+  EXPECT_NE(html.find("<footer>Written by lrf 0."), std::string::npos);
+  EXPECT_EQ(html.find("lrf lrf"), std::string::npos);
+}
+
 // Few-shot: every method trains on the same K views (recorded), never starts from the scene's own SfM
 // points (reconstructed from every view, test views included), and the folder refuses other settings.
 TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {

@@ -41,7 +41,7 @@ std::string base64_decode(const std::string& s) {
 // Checks that every element is closed in order (void elements excepted): the page is well-formed.
 void expect_balanced_tags(const std::string& html) {
   static const std::regex tag(R"(<(/?)([a-zA-Z][a-zA-Z0-9]*)[^>]*>)");
-  static const std::vector<std::string> void_elements = {"meta", "img", "br", "hr", "link"};
+  static const std::vector<std::string> void_elements = {"meta", "img", "br", "hr", "link", "wbr"};
   std::vector<std::string> stack;
   for (auto it = std::sregex_iterator(html.begin(), html.end(), tag); it != std::sregex_iterator(); ++it) {
     std::string name = (*it)[2];

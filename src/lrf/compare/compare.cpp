@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <map>
 #include <optional>
 
 #include <torch/torch.h>
@@ -126,6 +127,32 @@ std::string fitted_to(const std::string& method, const std::string& dir, const C
               c.value("feature_dim", nlohmann::json()).dump() + " features by a 1x1 convolution";
   }
   return method == "latent-refined" ? latents + ", then " + full + " RGB through the decoder" : latents;
+}
+
+// One sentence for each Gaussian-field method this run has, for the report's notes (the notes describe the
+// rows of the table, not every method compare knows; latent-nerf has a note of its own).
+std::string method_notes(const CompareOptions& o) {
+  const std::map<std::string, std::string> notes = {
+      {"rgb/8", "rgb/8: RGB 3D Gaussian splatting trained on the views downscaled 8x and rendered at full "
+                "resolution (the paper's 3DGS/8)."},
+      {"rgb/8-mip", "rgb/8-mip: RGB 3D Gaussian splatting with Mip-Splatting's filters, trained on the views "
+                    "downscaled 8x and rendered at full resolution (the paper's Mip-Splatting/8)."},
+      {"rgb", "rgb: RGB 3D Gaussian splatting on the full-resolution views."},
+      {"rgb-mip", "rgb-mip: RGB 3D Gaussian splatting with Mip-Splatting's filters on the full-resolution views."},
+      {"latent", "latent: a latent field with the " + o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE)."},
+      {"latent-refined", "latent-refined: the latent field refined through the decoder against the training "
+                         "images (lrf refine: " + refine_description(o.refine) + ")."},
+      {"feature-gs", "feature-gs: the Feature-GS baseline (Feature 3DGS's speed-up module): Gaussians carrying " +
+                         (o.feature_dim > 0 ? std::to_string(o.feature_dim) + " features"
+                                            : std::string("half as many features as the latent has channels")) +
+                         ", rendered at latent resolution, lifted to the latent by a 1x1 convolution trained with "
+                         "them on the latent field's targets and loss, decoded."}};
+  std::string text;
+  for (const auto& method : o.methods) {
+    const auto it = notes.find(method);
+    if (it != notes.end()) text += " " + it->second;
+  }
+  return text;
 }
 
 // The paper's efficiency table (training time, memory, storage, render and decode speed) for these methods.
@@ -369,19 +396,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
   }
   spec.notes.push_back("Scene " + o.scene + ", test views every " + std::to_string(o.test_every) + "th, scored at " +
                        std::to_string(c0.width) + "x" + std::to_string(c0.height) + " (latent " +
-                       std::to_string(c0.width / 8) + "x" + std::to_string(c0.height / 8) + "). rgb/8 and rgb/8-mip: RGB "
-                       "3D Gaussian splatting trained on the views downscaled 8x and rendered at full resolution "
-                       "(the paper's 3DGS/8 and Mip-Splatting/8); latent: a latent field with the " +
-                       o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE). " + std::to_string(o.iters) +
-                       " iterations. rgb, rgb-mip: RGB 3D Gaussian splatting (rgb-mip with Mip-Splatting's "
-                       "filters) on the full-resolution views. latent-refined: "
-                       "the latent field refined through the decoder against the training images (lrf refine: " +
-                       refine_description(o.refine) + "). feature-gs: the Feature-GS baseline (Feature 3DGS's "
-                       "speed-up module): Gaussians carrying " +
-                       (o.feature_dim > 0 ? std::to_string(o.feature_dim) + " features"
-                                          : std::string("half as many features as the latent has channels")) +
-                       ", rendered at latent resolution, lifted to the latent by a 1x1 convolution trained with them "
-                       "on the latent field's targets and loss, decoded.");
+                       std::to_string(c0.width / 8) + "x" + std::to_string(c0.height / 8) + "), " +
+                       std::to_string(o.iters) + " iterations." + method_notes(o));
   spec.notes.push_back("train_seconds is the wall time of everything a row needs: the fit, and for the latent rows "
                        "also the encoding of the training views (as long as reading them from the latent cache took, "
                        "when they were cached), for latent-refined also its refinement.");

@@ -30,9 +30,10 @@ h1 { font-size: 1.7rem; margin: 0 0 20px; }
 h2 { font-size: 1.2rem; margin: 36px 0 12px; padding-bottom: 4px; border-bottom: 1px solid var(--line); }
 h3 { font-size: 1rem; margin: 28px 0 10px; font-family: ui-monospace, SFMono-Regular, Menlo, Consolas, monospace; }
 .table-wrap { overflow-x: auto; }
-table { border-collapse: collapse; font-variant-numeric: tabular-nums; }
-th, td { padding: 6px 14px; border-bottom: 1px solid var(--line); text-align: left; white-space: nowrap; }
-thead th { background: var(--panel); font-weight: 600; }
+table { border-collapse: collapse; font-variant-numeric: tabular-nums; font-size: 0.9rem; }
+th, td { padding: 5px 10px; border-bottom: 1px solid var(--line); text-align: left; white-space: nowrap; }
+thead th { background: var(--panel); font-weight: 600; white-space: normal; vertical-align: bottom; }
+td:not(.num):not(:first-child) { white-space: normal; min-width: 10em; }
 .num { text-align: right; }
 td.best { font-weight: 700; color: var(--accent); }
 td.missing { color: var(--muted); }
@@ -73,6 +74,15 @@ bool is_best(const std::vector<Row>& rows, size_t col, Better better, size_t row
   return rows[row][col].number == best;
 }
 
+// A column's name as a header cell: it may wrap after its underscores (compare's twelve columns then fit a
+// 1280-pixel window without scrolling), and a column where lower is better says so with an arrow.
+std::string header_cell(const std::string& name, Better better) {
+  std::string text;
+  for (char c : html_escape(name)) text += c == '_' ? std::string("_<wbr>") : std::string(1, c);
+  if (better == Better::lower) text += " <span title=\"lower is better\">&darr;</span>";
+  return text;
+}
+
 void html_table(std::string& html, const ReportTable& table) {
   const auto& header = table.header;
   table_csv(header, table.rows, "HTML report table '" + table.title + "'");  // validates the widths with a clear error
@@ -83,7 +93,8 @@ void html_table(std::string& html, const ReportTable& table) {
   }
   html += "<h2>" + html_escape(table.title) + "</h2>\n<div class=\"table-wrap\"><table>\n<thead><tr>";
   for (size_t j = 0; j < header.size(); ++j) {
-    html += std::string(numeric[j] ? "<th class=\"num\">" : "<th>") + html_escape(header[j]) + "</th>";
+    const Better better = j < table.better.size() ? table.better[j] : Better::none;
+    html += std::string(numeric[j] ? "<th class=\"num\">" : "<th>") + header_cell(header[j], better) + "</th>";
   }
   html += "</tr></thead>\n<tbody>\n";
   for (size_t i = 0; i < rows.size(); ++i) {
@@ -210,7 +221,8 @@ std::string html_report(const ReportSpec& spec) {
     }
     html += "</section>\n";
   }
-  std::string footer = spec.footer.empty() ? "Written by lrf " + version_string() + " on " + utc_now() : spec.footer;
+  // version_string() starts with "lrf" itself.
+  std::string footer = spec.footer.empty() ? "Written by " + version_string() + " on " + utc_now() : spec.footer;
   html += "<footer>" + html_escape(footer) + "</footer>\n</main>\n</body>\n</html>\n";
   return html;
 }

@@ -52,7 +52,7 @@ struct ReportSpec {
   // Images larger than this (width or height, in pixels) are shrunk for the page with an area filter,
   // to keep the file small; 0 = embed as given. Metrics are computed before, on the full images.
   int max_image_side = 0;
-  std::string footer;  // empty: "lrf <version>" and the time of writing
+  std::string footer;  // empty: "Written by lrf <version> on <time of writing>"
 };
 
 // The page as a string; throws lrf::Error if the summary's rows do not match its header or an image
