@@ -57,7 +57,7 @@ TEST(CliLatent, TrainRenderEval) {
     EXPECT_TRUE(metrics.contains(k)) << k;
   }
   auto bad = lrf::test::run_lrf("eval '" + out + "' --scale 2");
-  EXPECT_EQ(bad.exit_code, 1);
+  EXPECT_EQ(bad.exit_code, 2) << bad.output;  // a usage error
 
   // --resume takes the recorded settings (space, autoencoder, SH degree...), not this command line's
   // defaults: given without --space it still continues the latent field, to the new --iters.
@@ -90,7 +90,7 @@ TEST(CliLatent, InriaRatesKeepsTheRatesOfAShortRun) {
   EXPECT_DOUBLE_EQ(config["learning_rates"]["sh_dc"].get<double>(), 2.5e-3);
 
   auto rgb = lrf::test::run_lrf("train '" + scene + "' --inria-rates --iters 10 -o '" + tmp.str() + "/rgb'");
-  EXPECT_EQ(rgb.exit_code, 1);
+  EXPECT_EQ(rgb.exit_code, 2);  // a usage error
   EXPECT_NE(rgb.output.find("--inria-rates"), std::string::npos) << rgb.output;
 }
 

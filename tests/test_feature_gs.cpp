@@ -300,7 +300,7 @@ TEST_F(FeatureField, BadInputIsReportedAndNothingIsWritten) {
   EXPECT_FALSE(fs::exists(rgb_init.out));
   auto cli = lrf::test::run_lrf("train '" + options("x").scene + "' --space rgb --feature-dim 8 -o '" +
                                 (*dir_ / "bad_rgb") + "'");
-  EXPECT_EQ(cli.exit_code, 1);
+  EXPECT_EQ(cli.exit_code, 2);  // a usage error
   EXPECT_NE(cli.output.find("--feature-dim applies to --space latent"), std::string::npos) << cli.output;
   EXPECT_FALSE(fs::exists(*dir_ / "bad_rgb"));
 

@@ -1,6 +1,7 @@
 // Bad input to the scene readers: each case is a one-line error naming the file, a non-zero exit code
 // from the CLI, and no output.
 #include <filesystem>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -10,6 +11,7 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
+#include "lrf/scene/colmap_model.h"
 #include "lrf/scene/scene.h"
 #include "test_helpers.h"
 
@@ -103,6 +105,84 @@ TEST(SceneErrors, UnreadableAndMixedSizeImages) {
     EXPECT_NE(std::string(e.what()).find("view_004.png: image is 10x10, expected 64x48"), std::string::npos)
         << e.what();
   }
+}
+
+// fern's poses_bounds.npy with one number replaced, beside a link to its images_8 folder (no COLMAP model).
+void fern_with_pose_value(const std::string& dir, int row, int entry, double value) {
+  const std::string fern = lrf::test::scene_dir("llff-fern");
+  std::string npy = lrf::read_file(fern + "/poses_bounds.npy");
+  const size_t data = npy.size() - 20 * 17 * sizeof(double);  // 20 rows of 17 float64 after the header
+  std::memcpy(npy.data() + data + (row * 17 + entry) * sizeof(double), &value, sizeof value);
+  lrf::write_file_atomic(dir + "/poses_bounds.npy", npy);
+  fs::create_directory_symlink(fern + "/images_8", dir + "/images_8");
+}
+
+// A NaN or an infinity in a pose or an intrinsic is refused by every reader, naming the file, the view and
+// the value (it used to load: a NaN camera position gave `extent 0.0000` and a training run that "worked").
+TEST(SceneErrors, NonFinitePosesAndIntrinsicsNameTheFileTheViewAndTheValue) {
+  TempDir tmp("non_finite");
+  // LLFF: a training view's camera position (row 3, entry [0][3]) and a test view's focal length.
+  fs::create_directories(tmp / "llff_t");
+  fern_with_pose_value(tmp / "llff_t", 3, 3, std::nan(""));
+  expect_cli_error(tmp / "llff_t", tmp / "llff_t/poses_bounds.npy" + ": row 3 (image003.png): camera position x is NaN");
+  fs::create_directories(tmp / "llff_f");
+  fern_with_pose_value(tmp / "llff_f", 8, 14, HUGE_VAL);
+  expect_cli_error(tmp / "llff_f", "poses_bounds.npy: row 8 (image008.png): focal length is +infinity");
+
+  // COLMAP (binary; the text format cannot spell NaN): a translation, then a camera parameter.
+  const lrf::ColmapModel synthetic = lrf::read_colmap_model(lrf::test::synthetic_scene() + "/sparse/0");
+  auto colmap_scene = [&](const std::string& dir, const lrf::ColmapModel& model) {
+    fs::create_directories(dir + "/sparse/0");
+    fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", dir + "/images");
+    lrf::write_colmap_binary(dir + "/sparse/0", model);
+  };
+  lrf::ColmapModel bad_pose = synthetic;
+  bad_pose.images[2].tvec.y() = -HUGE_VAL;
+  colmap_scene(tmp / "colmap_t", bad_pose);
+  expect_cli_error(tmp / "colmap_t", tmp / "colmap_t/sparse/0/images.bin" +
+                                         ": image 'view_002.png' (id 3): translation ty is -infinity");
+  lrf::ColmapModel bad_camera = synthetic;
+  bad_camera.cameras.begin()->second.params[0] = std::nan("");
+  colmap_scene(tmp / "colmap_k", bad_camera);
+  expect_cli_error(tmp / "colmap_k", "cameras.bin: camera 1 (PINHOLE): parameter 1 of 4 is NaN");
+  lrf::ColmapModel zero_rotation = synthetic;
+  zero_rotation.images[0].qvec.setZero();
+  colmap_scene(tmp / "colmap_q", zero_rotation);
+  expect_cli_error(tmp / "colmap_q", "images.bin: image 'view_000.png' (id 1): rotation quaternion is zero");
+
+  // transforms.json (JSON cannot spell NaN either): a field of view of 0 makes the focal length infinite.
+  fs::create_directories(tmp / "nerf");
+  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "nerf/images");
+  nlohmann::json frames = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) {
+    frames.push_back({{"file_path", "images/view_00" + std::to_string(i) + ".png"},
+                      {"transform_matrix", {{1, 0, 0, i}, {0, 1, 0, 0}, {0, 0, 1, 4}, {0, 0, 0, 1}}}});
+  }
+  lrf::write_file_atomic(tmp / "nerf/transforms.json", nlohmann::json({{"camera_angle_x", 0}, {"frames", frames}}).dump());
+  expect_cli_error(tmp / "nerf", tmp / "nerf/transforms.json" + ": frame 'images/view_000.png': focal length fx is +infinity");
+
+  // Training refuses the scene as well, and leaves no output folder behind.
+  auto r = run_lrf("train '" + tmp / "llff_t" + "' --images images_8 --iters 10 -o '" + tmp / "out" + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("camera position x is NaN"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "out"));
+}
+
+// Views smaller than kMinImageSide after --downscale are refused, naming the image and the sizes (fern at
+// --downscale 1000 used to train on 1x1 images and exit 0).
+TEST(SceneErrors, ImagesTooSmallAfterDownscalingAreRefused) {
+  expect_cli_error(lrf::test::scene_dir("llff-fern"),
+                   "image000.png: the 504x378 image is 1x1 after --downscale 1000; lrf needs at least 32 pixels per side",
+                   "--images images_8 --downscale 1000");
+  const std::string synthetic = lrf::test::synthetic_scene();  // 64x48
+  expect_cli_error(synthetic, "view_000.png: the 64x48 image is 32x24 after --downscale 2; lrf needs at least 32",
+                   "--downscale 2");
+  EXPECT_EQ(run_lrf("-q scene info '" + synthetic + "'").exit_code, 0);
+  TempDir tmp("too_small");
+  auto r = run_lrf("train '" + synthetic + "' --downscale 2 --iters 10 -o '" + tmp / "out" + "'");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("lrf needs at least 32 pixels per side"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "out"));
 }
 
 TEST(SceneErrors, SynthRefusesNonEmptyOutputAndWritesNothing) {

@@ -144,13 +144,14 @@ TEST(Video, RenderPathCliRgb) {
   ASSERT_EQ(o.frames.size(), 3u);
   EXPECT_EQ(o.frames[0].size(), cv::Size(128, 96));
 
-  // Refusals, each before anything is written.
-  for (const std::string& bad : {std::string("--path helix"), std::string("--path spiral --frames 0"),
-                                 std::string("--frames 5"), std::string("--path spiral --split train"),
-                                 std::string("--path spiral --decoder x.safetensors"),
-                                 std::string("--path spiral --video '") + tmp.str() + "/x.avi'"}) {
+  // Refusals, each before anything is written: option values and combinations are usage errors (2), what
+  // the field or the file named rules out a failure (1).
+  const std::vector<std::pair<std::string, int>> refused = {
+      {"--path helix", 2}, {"--path spiral --frames 0", 2}, {"--frames 5", 2}, {"--path spiral --split train", 2},
+      {"--path spiral --decoder x.safetensors", 1}, {"--path spiral --video '" + tmp.str() + "/x.avi'", 1}};
+  for (const auto& [bad, status] : refused) {
     auto b = lrf::test::run_lrf("render '" + field + "' " + bad);
-    EXPECT_EQ(b.exit_code, 1) << bad << "\n" << b.output;
+    EXPECT_EQ(b.exit_code, status) << bad << "\n" << b.output;
   }
   EXPECT_FALSE(fs::exists(tmp / "x.avi"));
 }
@@ -165,5 +166,5 @@ TEST(Video, RenderPathCliLatent) {
   ASSERT_EQ(v.frames.size(), 4u);
   EXPECT_EQ(v.frames[0].size(), cv::Size(64, 48)) << "decoded at 8x the latent size";
   auto b = lrf::test::run_lrf("render '" + field + "' --path interp --scale 2");
-  EXPECT_EQ(b.exit_code, 1) << b.output;
+  EXPECT_EQ(b.exit_code, 2) << b.output;  // a usage error
 }

@@ -11,6 +11,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
 #include "lrf/eval/scores.h"
+#include "lrf/splat/run/render_size.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/rgb/rgb_field.h"
 
@@ -26,7 +27,7 @@ struct EvalOptions {
 };
 
 int run_eval_latent(const EvalOptions& o, bool nerf) {
-  if (o.scale != 1.0) lrf::fail("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
+  if (o.scale != 1.0) lrf::fail_usage("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
   lrf::LatentEvalOptions le;
   le.decoder = o.decoder;
   le.lpips_weights = o.lpips_weights;
@@ -43,9 +44,10 @@ int run_eval_latent(const EvalOptions& o, bool nerf) {
 int run_eval(const EvalOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
+  check_render_options(o.scale, 0, 0);
   if (nerf::is_nerf_run(o.out)) return run_eval_latent(o, true);
   if (is_latent_run(o.out)) return run_eval_latent(o, false);
-  if (!o.decoder.empty() || !o.lpips_weights.empty()) fail("--decoder and --lpips-weights apply to latent fields");
+  if (!o.decoder.empty() || !o.lpips_weights.empty()) fail_usage("--decoder and --lpips-weights apply to latent fields");
   auto run = open_field_run(o.out);
   if (run.scene.test_indices.empty()) fail(o.out, "the scene has no test views");
   nlohmann::json views = nlohmann::json::array();

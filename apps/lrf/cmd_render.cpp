@@ -18,6 +18,7 @@
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
+#include "lrf/splat/run/render_size.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/rgb/rgb_field.h"
 
@@ -43,10 +44,10 @@ struct RenderOptions {
 // --path: the scene's camera path rendered into an MP4 (and PNG frames with --frames-dir).
 int run_render_path(const RenderOptions& o) {
   using namespace lrf;
-  if (o.split_given) fail("--split chooses the scene's views; a --path video has its own cameras");
+  if (o.split_given) fail_usage("--split chooses the scene's views; a --path video has its own cameras");
   auto frames = FieldFrames::open(o.out, o.decoder);
   if (frames->latent() && (o.scale != 1.0 || o.width > 0))
-    fail("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and decode at 8x");
+    fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and decode at 8x");
   const auto kind = camera_path::parse_path_kind(o.path);
   camera_path::PathOptions po;
   po.frames = o.frames;
@@ -84,8 +85,6 @@ int run_render_latent(const RenderOptions& o, const std::vector<int>& indices, c
                       const lrf::LatentRange& range, lrf::Autoencoder& ae,
                       const std::function<torch::Tensor(int)>& render_view, const std::string& dir) {
   using namespace lrf;
-  if (o.scale != 1.0 || o.width > 0) fail("--scale/--width/--height apply to RGB fields; latent fields render at "
-                                          "their latent resolution and decode at 8x");
   Progress progress("render", static_cast<long>(indices.size()));
   long done = 0;
   for (int i : indices) {
@@ -106,10 +105,10 @@ int run_render_latent(const RenderOptions& o, const std::vector<int>& indices, c
 int run_render(const RenderOptions& o) {
   using namespace lrf;
   using namespace lrf::splat;
-  if ((o.width > 0) != (o.height > 0)) fail("--width and --height go together");
+  check_render_options(o.scale, o.width, o.height);  // before the field is even opened
   if (!o.path.empty()) return run_render_path(o);
   if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given)
-    fail("--video, --frames-dir, --frames and --fps go with --path");
+    fail_usage("--video, --frames-dir, --frames and --fps go with --path");
   const bool nerf_field = nerf::is_nerf_run(o.out);
   const bool latent = !nerf_field && is_latent_run(o.out);
   LatentRun lrun;
@@ -122,15 +121,22 @@ int run_render(const RenderOptions& o) {
     lrun = open_latent_run(o.out);
     run.scene = lrun.scene;
   } else {
-    if (!o.decoder.empty()) fail("--decoder applies to latent fields");
+    if (!o.decoder.empty()) fail_usage("--decoder applies to latent fields");
     run = open_field_run(o.out);
   }
   std::vector<int> indices;
   if (o.split == "test") indices = run.scene.test_indices;
   else if (o.split == "train") indices = run.scene.train_indices;
   else if (o.split == "all") for (size_t i = 0; i < run.scene.views.size(); ++i) indices.push_back(int(i));
-  else fail("--split must be test, train or all");
+  else fail_usage("--split must be test, train or all");
   if (indices.empty()) fail(o.out, "the '" + o.split + "' split has no views");
+  // Every view's size is checked before anything is written.
+  if ((nerf_field || latent) && (o.scale != 1.0 || o.width > 0))
+    fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and "
+               "decode at 8x");
+  std::vector<Camera> cameras;  // RGB fields: each view's camera at the size asked for
+  if (!nerf_field && !latent)
+    for (int i : indices) cameras.push_back(scaled_camera(run.scene.views[size_t(i)].camera, o.scale, o.width, o.height));
   const std::string dir = o.dir.empty() ? (fs::path(o.out) / "renders" / o.split).string() : o.dir;
   fs::create_directories(dir);
   if (nerf_field) {
@@ -145,10 +151,9 @@ int run_render(const RenderOptions& o) {
   }
   Progress progress("render", static_cast<long>(indices.size()));
   long done = 0;
-  for (int i : indices) {
-    const auto& view = run.scene.views[static_cast<size_t>(i)];
-    auto camera = scaled_camera(view.camera, o.scale, o.width, o.height);
-    auto image = render_field(run.field, camera, run.render).image;
+  for (size_t k = 0; k < indices.size(); ++k) {
+    const auto& view = run.scene.views[static_cast<size_t>(indices[k])];
+    auto image = render_field(run.field, cameras[k], run.render).image;
     write_image_rgb((fs::path(dir) / (fs::path(view.name).stem().string() + ".png")).string(), splat::tensor_to_image(image));
     progress.update(++done);
   }
@@ -165,9 +170,12 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   cmd->add_option("out", o->out, "Output folder of lrf train")->required();
   auto* split = cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
   cmd->add_option("-o,--dir", o->dir, "Folder for the images (default OUT/renders/SPLIT)");
-  auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training")->capture_default_str();
-  cmd->add_option("--width", o->width, "Render width in pixels (with --height)")->excludes(scale);
-  cmd->add_option("--height", o->height, "Render height in pixels (with --width)")->excludes(scale);
+  const std::string most = std::to_string(lrf::splat::kMaxRenderSide);
+  auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training (RGB fields; images of at most " +
+                                                         most + " pixels per side)")
+                    ->capture_default_str();
+  cmd->add_option("--width", o->width, "Render width in pixels (with --height; at most " + most + ")")->excludes(scale);
+  cmd->add_option("--height", o->height, "Render height in pixels (with --width; at most " + most + ")")->excludes(scale);
   cmd->add_option("--decoder", o->decoder, "Latent fields and latent NeRFs: decode with these decoder weights (e.g. Stage III's; default: the decoder "
                   "a refined field was fitted through, else the autoencoder's)");
   cmd->add_option("--path", o->path, "Render a camera path instead of the scene's views: spiral (LLFF's spiral around "

@@ -46,7 +46,7 @@ nlohmann::json summary(const PointsOptions& o, const lrf::TriangulatedPoints& r,
 
 int run_points(PointsOptions o) {
   using namespace lrf;
-  if (o.views != "all" && o.views != "train") fail("--views must be all or train");
+  if (o.views != "all" && o.views != "train") fail_usage("--views must be all or train");
   o.t.training_views_only = o.views == "train";
   Scene scene = load_scene(o.scene, o.scene_options);
   if (!o.min_track_given) o.t = few_shot_triangulation(scene.few_shot_views, o.t);  // as training triangulates the split

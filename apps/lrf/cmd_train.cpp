@@ -67,10 +67,10 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.test_every = o.scene_options.test_every;
   l.train_views = o.scene_options.train_views;
   // A negative count is compare's "half the latent channels", met here only in a run being resumed.
-  if (o.feature_dim < 0 && !o.resume) lrf::fail("--feature-dim must be 0 (a latent field) or a feature count");
+  if (o.feature_dim < 0 && !o.resume) lrf::fail_usage("--feature-dim must be 0 (a latent field) or a feature count");
   l.feature_dim = o.feature_dim;
   if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
-    lrf::fail("--test-list, --crop8 and --format are not available with --space latent yet (latent views are always "
+    lrf::fail_usage("--test-list, --crop8 and --format are not available with --space latent yet (latent views are always "
               "cropped to multiples of 8)");
   l.sh_degree = o.sh_degree_set ? o.sh_degree : lrf::kDefaultLatentShDegree;
   l.iters = o.iters;
@@ -83,7 +83,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.force = o.force;
   l.sparse_adam = o.sparse_adam;
   l.init_points = points;
-  if (o.mip) lrf::fail("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
+  if (o.mip) lrf::fail_usage("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
   lrf::train_latent_field(l);
   return 0;
 }
@@ -91,10 +91,10 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
 int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) {
   if (o.mip || o.sh_degree_set || o.max_gaussians || o.sparse_adam || o.white_background || o.init != "latents" ||
       o.densify_grad != lrf::splat::DensifyOptions{}.grad_threshold)
-    lrf::fail("--mip, --sh-degree, --max-gaussians, --densify-grad, --sparse-adam, --white-background and --init apply to Gaussian "
+    lrf::fail_usage("--mip, --sh-degree, --max-gaussians, --densify-grad, --sparse-adam, --white-background and --init apply to Gaussian "
               "fields, not to --space latent-nerf");
   if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
-    lrf::fail("--test-list, --crop8 and --format are not available with --space latent-nerf (latent views are always "
+    lrf::fail_usage("--test-list, --crop8 and --format are not available with --space latent-nerf (latent views are always "
               "cropped to multiples of 8)");
   lrf::nerf::LatentNerfOptions n;
   n.scene = o.scene;
@@ -121,7 +121,7 @@ int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) 
 // --resume of a latent NeRF: its recorded options, except --iters, --checkpoint-every and --cache-dir when given.
 int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
   if (given.nerf_option_set)
-    lrf::fail("--rays, --samples and --hash-log2 are fixed when a latent NeRF starts; --resume keeps the recorded ones");
+    lrf::fail_usage("--rays, --samples and --hash-log2 are fixed when a latent NeRF starts; --resume keeps the recorded ones");
   auto n = lrf::nerf::recorded_nerf_options(given.out);
   n.resume = true;
   if (iters_given) n.iters = given.iters;
@@ -210,21 +210,21 @@ int run_train(const TrainOptions& o) {
   InitPointsOptions points = o.init_points;
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
   check_init_points_mode(points.mode);
-  if (o.rgb_guide != 0 && o.space != "latent") fail("--rgb-guide applies to --space latent");
-  if (o.inria_rates && o.space != "latent") fail("--inria-rates applies to --space latent");
-  if (o.coarse_factor < 1) fail("--coarse-factor must be at least 1");
-  if (o.coarse_until < -1) fail("--coarse-until must be a step (or -1: where densification ends)");
+  if (o.rgb_guide != 0 && o.space != "latent") fail_usage("--rgb-guide applies to --space latent");
+  if (o.inria_rates && o.space != "latent") fail_usage("--inria-rates applies to --space latent");
+  if (o.coarse_factor < 1) fail_usage("--coarse-factor must be at least 1");
+  if (o.coarse_until < -1) fail_usage("--coarse-until must be a step (or -1: where densification ends)");
   if ((o.coarse_factor != 1 || o.coarse_until != -1) && o.space != "rgb")
-    fail("--coarse-factor and --coarse-until apply to --space rgb");
+    fail_usage("--coarse-factor and --coarse-until apply to --space rgb");
   if (o.space == "latent-nerf") return run_train_nerf(o, points);
-  if (o.nerf_option_set) fail("--rays, --samples and --hash-log2 apply to --space latent-nerf");
+  if (o.nerf_option_set) fail_usage("--rays, --samples and --hash-log2 apply to --space latent-nerf");
   if (o.space == "latent") return run_train_latent(o, points);
-  if (o.space != "rgb") fail("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
-  if (o.feature_dim != 0) fail("--feature-dim applies to --space latent (a feature field lifted to the latent)");
-  if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
-  if (o.iters < 1) fail("--iters must be at least 1");
-  if (!(o.densify_grad > 0)) fail("--densify-grad must be positive");
-  if (o.scene_options.downscale < 1) fail("--downscale must be at least 1");
+  if (o.space != "rgb") fail_usage("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
+  if (o.feature_dim != 0) fail_usage("--feature-dim applies to --space latent (a feature field lifted to the latent)");
+  if (o.sh_degree < 0 || o.sh_degree > 3) fail_usage("--sh-degree must be 0..3");
+  if (o.iters < 1) fail_usage("--iters must be at least 1");
+  if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
+  if (o.scene_options.downscale < 1) fail_usage("--downscale must be at least 1");
   const auto lock = prepare_output_dir(o.out, o.force, o.resume);
 
   const SceneOptions& so = o.scene_options;

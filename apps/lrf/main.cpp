@@ -7,11 +7,14 @@
 #include <c10/util/Exception.h>
 
 #include "command.h"
+#include "exit_status.h"
+#include "unknown_command.h"
 #include "lrf/core/allocator.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/precision.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/stop_request.h"
 #include "lrf/core/threads.h"
 
 namespace lrf::cli {
@@ -40,6 +43,29 @@ CommandRegistration::CommandRegistration(int order, SetupFunction setup) {
 
 void on_run(CLI::App* command, RunFunction run) { runners().emplace_back(command, std::move(run)); }
 
+namespace {
+
+// A command line CLI11 cannot parse: its message (or, for a mistyped subcommand, which one and the closest
+// name), as a JSON line with --log-json; exit status 2. --help and --version end here too, with 0.
+int parse_error_exit(CLI::App& app, const CLI::ParseError& e, int argc, char** argv) {
+  if (e.get_exit_code() == 0) return app.exit(e);
+  std::string message = e.what();
+  const std::string unknown = unknown_command(app, argc, argv);
+  if (!unknown.empty()) {
+    const std::string near = closest_command(app, unknown);
+    message = "unknown command '" + unknown + "'" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+              "; `lrf --help` lists the commands";
+  }
+  if (log_mode() == LogMode::json || !unknown.empty()) {
+    log_error(message);
+  } else {
+    app.exit(e);  // CLI11's own wording, with its pointer to --help
+  }
+  return kExitUsage;
+}
+
+}  // namespace
+
 }  // namespace lrf::cli
 
 int main(int argc, char** argv) {
@@ -50,10 +76,13 @@ int main(int argc, char** argv) {
                "space of an image autoencoder (encoder alignment, latent Gaussian splatting, decoder "
                "alignment, and their evaluation)."};
   app.set_version_flag("--version", version_string());
+  app.footer(cli::kExitStatusHelp);
   int threads = 0;
   bool quiet = false;
   bool log_json = false;
+  // A negative count used to be taken silently as "all cores"; more than 1024 is a typo, not a machine.
   app.add_option("--threads", threads, "Worker threads for every computation (0 = all cores)")
+      ->check(CLI::Range(0, 1024))
       ->capture_default_str();
   std::string precision;
   app.add_option("--precision", precision,
@@ -74,10 +103,13 @@ int main(int argc, char** argv) {
   std::stable_sort(regs.begin(), regs.end(), [](auto& a, auto& b) { return a.order < b.order; });
   for (auto& r : regs) r.setup(app);
 
+  // --log-json is looked for before parsing, so that an error in the command line itself is a JSON line too.
+  for (int i = 1; i < argc && std::string(argv[i]) != "--"; ++i)
+    if (std::string(argv[i]) == "--log-json") set_log_mode(LogMode::json);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return cli::parse_error_exit(app, e, argc, argv);
   }
   if (help->parsed()) {
     CLI::App* target = &app;
@@ -85,8 +117,8 @@ int main(int argc, char** argv) {
       try {
         target = target->get_subcommand(name);
       } catch (const CLI::OptionNotFound&) {
-        std::fprintf(stderr, "error: no subcommand '%s'\n", name.c_str());
-        return 2;
+        log_error("no subcommand '" + name + "'");
+        return cli::kExitUsage;
       }
     }
     std::printf("%s", target->help().c_str());
@@ -100,7 +132,7 @@ int main(int argc, char** argv) {
     resolve_precision(default_precision());  // a bad $LRF_PRECISION or $LRF_CPU_BF16 is reported before any work
   } catch (const lrf::Error& e) {
     log_error(e.what());
-    return 2;
+    return cli::kExitUsage;
   }
   for (auto& [command, run] : cli::runners()) {
     if (!command->parsed()) continue;
@@ -109,17 +141,23 @@ int main(int argc, char** argv) {
     if (!leaf) continue;
     try {
       return run();
+    } catch (const lrf::Interrupted& e) {
+      log_warn(e.what());
+      return e.exit_status();
+    } catch (const lrf::UsageError& e) {
+      log_error(e.what());
+      return cli::kExitUsage;
     } catch (const lrf::Error& e) {
       log_error(e.what());
-      return 1;
+      return cli::kExitFailed;
     } catch (const c10::Error& e) {
       log_error(std::string("libtorch: ") + e.what_without_backtrace());
-      return 1;
+      return cli::kExitFailed;
     } catch (const std::exception& e) {
       log_error(e.what());
-      return 1;
+      return cli::kExitFailed;
     }
   }
   std::fprintf(stderr, "%s", app.help().c_str());
-  return 2;
+  return cli::kExitUsage;
 }

@@ -8,7 +8,7 @@ PathKind parse_path_kind(const std::string& name) {
   if (name == "spiral") return PathKind::spiral;
   if (name == "orbit") return PathKind::orbit;
   if (name == "interp") return PathKind::interp;
-  fail("--path must be spiral, orbit or interp (got '" + name + "')");
+  fail_usage("--path must be spiral, orbit or interp (got '" + name + "')");
 }
 
 std::string path_kind_name(PathKind kind) {
@@ -38,7 +38,7 @@ std::vector<Eigen::Vector3d> point_positions(const Scene& scene) {
 }
 
 std::vector<Camera> make_path(const Scene& scene, PathKind kind, const PathOptions& options, PathGeometry* geometry) {
-  if (options.frames < 1) fail("--frames must be at least 1");
+  if (options.frames < 1) fail_usage("--frames must be at least 1");
   const auto cameras = training_cameras(scene);
   if (cameras.empty()) fail(scene.root, "the scene has no views to build a camera path from");
   const auto points = point_positions(scene);

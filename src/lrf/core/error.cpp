@@ -9,5 +9,6 @@ Error::Error(const std::string& what) : std::runtime_error(what) {}
 
 void fail(const std::string& path, const std::string& what) { throw Error(path, what); }
 void fail(const std::string& what) { throw Error(what); }
+void fail_usage(const std::string& what) { throw UsageError(what); }
 
 }  // namespace lrf

@@ -41,7 +41,7 @@ DistributedOptions resolve_distributed_options(const DistributedOptions& flags) 
   if (o.master_port < 1 || o.master_port > 65535) {
     fail("master port " + std::to_string(o.master_port) + " (--master-port / MASTER_PORT) is not a TCP port");
   }
-  if (!(o.timeout_seconds > 0)) fail("--dist-timeout must be positive");
+  if (!(o.timeout_seconds > 0)) fail_usage("--dist-timeout must be positive");
   return o;
 }
 

@@ -33,7 +33,7 @@ int64_t checkpoint_step_of(const std::string& path) {
 
 splat::Gaussians feature_field_start(const splat::Gaussians& latent_start, int feature_dim) {
   if (feature_dim < 1 || feature_dim > kMaxFeatureDim)
-    fail("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(feature_dim));
+    fail_usage("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(feature_dim));
   splat::Gaussians g = latent_start.clone();
   g.sh = at::zeros({g.size(), g.sh.size(1), feature_dim}, at::kFloat);
   g.make_leaves();
@@ -43,7 +43,7 @@ splat::Gaussians feature_field_start(const splat::Gaussians& latent_start, int f
 FeatureLiftTraining::FeatureLiftTraining(FeatureLift lift, double lr, std::string out, int64_t checkpoint_every,
                                          int64_t iterations)
     : lift_(std::move(lift)), out_(std::move(out)), checkpoint_every_(checkpoint_every), iterations_(iterations) {
-  if (!(lr > 0)) fail("--lift-lr must be positive");
+  if (!(lr > 0)) fail_usage("--lift-lr must be positive");
   adam_ = std::make_unique<ParamAdam>(lift_.parameters(), AdamOptions{lr});
 }
 

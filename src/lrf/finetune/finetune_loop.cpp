@@ -11,6 +11,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
+#include "lrf/core/stop_request.h"
 #include "lrf/distributed/gradient_averager.h"
 #include "lrf/finetune/finetune_output.h"
 
@@ -107,16 +108,23 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   result.first_step = start;
   std::optional<Progress> progress;
   if (g.is_main()) progress.emplace(l.task, l.steps, 2.0, start);
+  // Ctrl-C / SIGTERM: a checkpoint after the step, then Interrupted. The request travels with the step's
+  // losses, so that every rank of a data-parallel group stops after the same step.
+  const StopOnSignals stop_on_signals;
   for (int64_t step = start; step < l.steps; ++step) {
     adam.zero_grad();
     FinetuneStepLoss part;
     std::vector<double> values;
+    bool stop = false;
     try {
       part = l.step_loss(step);
       values.push_back(part.loss.item<double>());
       for (const auto& [name, value] : part.metrics) values.push_back(value);
+      values.push_back(stop_signal() ? 1.0 : 0.0);
       const auto s0 = std::chrono::steady_clock::now();
       g.sum(values);
+      stop = values.back() > 0;
+      values.pop_back();
       result.sync_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - s0).count();
     } catch (const std::exception& e) {
       if (!g.distributed()) throw;
@@ -144,6 +152,10 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
     }
     if (progress) progress->update(step + 1, shown);
     if (l.checkpoint_every > 0 && (step + 1) % l.checkpoint_every == 0 && step + 1 < l.steps) save_checkpoint();
+    if (stop && step + 1 < l.steps) {
+      if (checkpointed != adam.steps()) save_checkpoint();
+      throw_interrupted(step + 1, l.checkpoint);
+    }
   }
   if (progress) progress->finish();
   save_checkpoint();

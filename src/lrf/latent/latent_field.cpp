@@ -20,7 +20,7 @@ Camera latent_camera(const Camera& image_camera, int factor) {
 LatentInit parse_latent_init(const std::string& name) {
   if (name == "latents") return LatentInit::latents;
   if (name == "rgb") return LatentInit::rgb;
-  fail("--init must be 'latents' or 'rgb', got '" + name + "'");
+  fail_usage("--init must be 'latents' or 'rgb', got '" + name + "'");
 }
 
 LatentTrainingData prepare_latent_training(const Scene& scene, const std::vector<torch::Tensor>& train_latents,

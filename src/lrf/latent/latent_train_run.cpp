@@ -33,15 +33,15 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
 
 LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   using namespace lrf::splat;
-  if (o.sh_degree < 0 || o.sh_degree > 3) fail("--sh-degree must be 0..3");
-  if (o.iters < 1) fail("--iters must be at least 1");
-  if (!(o.densify_grad > 0)) fail("--densify-grad must be positive");
-  if (!(o.rgb_guide >= 0)) fail("--rgb-guide must be 0 (off) or a positive weight");
+  if (o.sh_degree < 0 || o.sh_degree > 3) fail_usage("--sh-degree must be 0..3");
+  if (o.iters < 1) fail_usage("--iters must be at least 1");
+  if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
+  if (!(o.rgb_guide >= 0)) fail_usage("--rgb-guide must be 0 (off) or a positive weight");
   LatentInit init = parse_latent_init(o.init);
   if (o.feature_dim != 0 && o.feature_dim != kHalfLatentChannels && (o.feature_dim < 1 || o.feature_dim > kMaxFeatureDim))
-    fail("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(o.feature_dim));
+    fail_usage("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(o.feature_dim));
   if (o.feature_dim != 0 && init != LatentInit::latents)
-    fail("--init rgb chooses latent features; a feature field (--feature-dim) starts from constant features");
+    fail_usage("--init rgb chooses latent features; a feature field (--feature-dim) starts from constant features");
   const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
 
   EncodedScene encoded = load_encoded_scene({o.scene, o.images, o.downscale, o.test_every, o.train_views,
@@ -56,7 +56,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   const int channels = ae->latent_channels();
   const int feature_dim = o.feature_dim == kHalfLatentChannels ? default_feature_dim(channels) : o.feature_dim;
   std::unique_ptr<FeatureLiftTraining> lift;  // a feature field's lift (feature-gs), trained with it
-  if (feature_dim > 0 && o.rgb_guide > 0) fail("--rgb-guide does not apply to feature fields (--feature-dim)");
+  if (feature_dim > 0 && o.rgb_guide > 0) fail_usage("--rgb-guide does not apply to feature fields (--feature-dim)");
   if (feature_dim > 0) {
     data.init = feature_field_start(data.init, feature_dim);
     data.init_description += "; as a feature field: " + std::to_string(feature_dim) +

@@ -13,6 +13,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/stop_request.h"
 #include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"
@@ -62,10 +63,10 @@ std::string log_rows_until(const std::string& path, int64_t step, double* elapse
 
 // Refuses an existing folder unless --force or --resume (see splat::prepare_output_dir); --force removes a
 // stale checkpoint so the run starts afresh.
-FolderLock prepare_nerf_output(const LatentNerfOptions& o) {
+splat::OutputFolder prepare_nerf_output(const LatentNerfOptions& o) {
   const std::string checkpoint = nerf_checkpoint_path(o.out);
-  if (o.resume && !fs::exists(checkpoint)) fail(checkpoint, "--resume: no checkpoint to resume from");
-  FolderLock lock = splat::prepare_output_dir(o.out, o.force || o.resume, false);
+  if (o.resume && !fs::exists(checkpoint)) splat::fail_no_checkpoint(checkpoint, o.out);
+  splat::OutputFolder lock = splat::prepare_output_dir(o.out, o.force || o.resume, false);
   if (o.force && !o.resume) {
     std::error_code ec;
     fs::remove(checkpoint, ec);
@@ -74,11 +75,11 @@ FolderLock prepare_nerf_output(const LatentNerfOptions& o) {
 }
 
 void check_options(const LatentNerfOptions& o) {
-  if (o.iters < 1) fail("--iters must be at least 1");
-  if (o.rays < 1 || o.rays > (1 << 20)) fail("--rays must be between 1 and 1048576");
-  if (o.samples < 2 || o.samples > 1024) fail("--samples must be between 2 and 1024");
-  if (o.log2_table < 10 || o.log2_table > 24) fail("--hash-log2 must be between 10 and 24");
-  if (o.checkpoint_every < 0) fail("--checkpoint-every must be 0 (only at the end) or positive");
+  if (o.iters < 1) fail_usage("--iters must be at least 1");
+  if (o.rays < 1 || o.rays > (1 << 20)) fail_usage("--rays must be between 1 and 1048576");
+  if (o.samples < 2 || o.samples > 1024) fail_usage("--samples must be between 2 and 1024");
+  if (o.log2_table < 10 || o.log2_table > 24) fail_usage("--hash-log2 must be between 10 and 24");
+  if (o.checkpoint_every < 0) fail_usage("--checkpoint-every must be 0 (only at the end) or positive");
 }
 
 }  // namespace
@@ -178,6 +179,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   };
 
   Progress progress("train-latent-nerf", o.iters, 2.0, trainer.steps_done());
+  const StopOnSignals stop_on_signals;  // Ctrl-C / SIGTERM: a checkpoint at the next step, then Interrupted
   double loss_sum = 0, psnr_sum = 0, time_sum[4] = {0, 0, 0, 0}, last_loss = 0;
   int64_t count = 0;
   while (!trainer.done()) {
@@ -202,6 +204,10 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
     }
     progress.update(r.step, {{"loss", r.loss}, {"psnr", r.psnr}});
     if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
+    if (stop_signal() && !trainer.done()) {
+      save();
+      throw_interrupted(trainer.steps_done(), checkpoint);
+    }
   }
   save();
   progress.finish({{"loss", last_loss}});

@@ -48,8 +48,8 @@ void adam_update(at::Tensor& param, const at::Tensor& grad, at::Tensor& m, at::T
 }  // namespace
 
 void NerfTrainOptions::check() const {
-  if (iterations < 1) fail("--iters must be at least 1");
-  if (rays_per_step < 1 || rays_per_step > (1 << 20)) fail("--rays must be between 1 and 1048576");
+  if (iterations < 1) fail_usage("--iters must be at least 1");
+  if (rays_per_step < 1 || rays_per_step > (1 << 20)) fail_usage("--rays must be between 1 and 1048576");
   if (!(lr > 0) || !(lr_final > 0) || !std::isfinite(lr) || !std::isfinite(lr_final))
     fail("NeRF learning rates must be positive");
 }

@@ -331,7 +331,7 @@ void parse_shard(const std::string& text, PipelineOptions* options) {
   } catch (const std::exception&) {
     n = 0;
   }
-  if (n < 1 || i < 0 || i >= n) fail("--shard '" + text + "': give i/n with 0 <= i < n (e.g. 0/2 and 1/2)");
+  if (n < 1 || i < 0 || i >= n) fail_usage("--shard '" + text + "': give i/n with 0 <= i < n (e.g. 0/2 and 1/2)");
   options->shard_index = i;
   options->shard_count = n;
 }

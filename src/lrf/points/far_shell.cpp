@@ -28,8 +28,8 @@ Eigen::Vector3d median_point(const std::vector<SfmPoint>& points) {
 }  // namespace
 
 std::vector<SfmPoint> far_shell_points(const Scene& scene, const std::vector<SfmPoint>& points, const FarShellOptions& o) {
-  if (o.points < 0) fail("--far-shell must be >= 0");
-  if (!(o.radius_factor >= 1)) fail("--far-shell-radius must be >= 1 (the shell lies beyond the scene)");
+  if (o.points < 0) fail_usage("--far-shell must be >= 0");
+  if (!(o.radius_factor >= 1)) fail_usage("--far-shell-radius must be >= 1 (the shell lies beyond the scene)");
   if (o.points == 0 || scene.train_indices.empty()) return {};
   const Eigen::Vector3d centre = points.empty() ? scene.camera_mean() : median_point(points);
   std::vector<double> distances;

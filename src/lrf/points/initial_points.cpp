@@ -125,7 +125,7 @@ void check_init_points_mode(const std::string& mode) {
   if (is_keyword(mode)) return;
   std::string ext = fs::path(mode).extension().string();
   if (ext != ".bin" && ext != ".txt") {
-    fail("--init-points must be auto, random, triangulate or a COLMAP points3D .bin/.txt file, got '" + mode + "'");
+    fail_usage("--init-points must be auto, random, triangulate or a COLMAP points3D .bin/.txt file, got '" + mode + "'");
   }
   if (!fs::is_regular_file(mode)) fail(mode, "point file not found (--init-points)");
 }

@@ -61,9 +61,9 @@ nlohmann::json TriangulationStats::to_json() const {
 }
 
 TriangulatedPoints triangulate_scene(const Scene& scene, const TriangulationOptions& o) {
-  if (o.min_track_length < 2) fail("--min-track-length must be at least 2");
-  if (!(o.max_error_px > 0)) fail("--max-error must be positive");
-  if (!(o.min_angle_deg >= 0 && o.min_angle_deg < 90)) fail("--min-angle must be in [0, 90) degrees");
+  if (o.min_track_length < 2) fail_usage("--min-track-length must be at least 2");
+  if (!(o.max_error_px > 0)) fail_usage("--max-error must be positive");
+  if (!(o.min_angle_deg >= 0 && o.min_angle_deg < 90)) fail_usage("--min-angle must be in [0, 90) degrees");
   const std::vector<int> ids = participating_views(scene, o.training_views_only);
   if (ids.size() < 2) {
     fail(scene.root, "triangulation needs at least two views with known poses; " + std::to_string(ids.size()) +

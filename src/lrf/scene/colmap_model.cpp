@@ -10,6 +10,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/binary_reader.h"
 #include "lrf/core/error.h"
+#include "lrf/core/finite.h"
 
 namespace fs = std::filesystem;
 
@@ -61,6 +62,23 @@ bool ends_with(const std::string& s, const std::string& suffix) {
   return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
+// Intrinsics and poses must be finite numbers (see core/finite.h), and a quaternion must have a length.
+void check_camera_values(const ColmapCamera& c, const std::string& path) {
+  const std::string where = "camera " + std::to_string(c.id) + " (" + c.model + ")";
+  const std::string count = std::to_string(c.params.size());
+  for (size_t k = 0; k < c.params.size(); ++k)
+    require_finite(c.params[k], path, where, "parameter " + std::to_string(k + 1) + " of " + count);
+}
+
+void check_image_pose(const ColmapImage& im, const std::string& path) {
+  const std::string where = "image '" + im.name + "' (id " + std::to_string(im.id) + ")";
+  static const char* const kQ[] = {"qw", "qx", "qy", "qz"};
+  static const char* const kT[] = {"tx", "ty", "tz"};
+  for (int k = 0; k < 4; ++k) require_finite(im.qvec[k], path, where, std::string("rotation quaternion ") + kQ[k]);
+  for (int k = 0; k < 3; ++k) require_finite(im.tvec[k], path, where, std::string("translation ") + kT[k]);
+  if (im.qvec.norm() == 0) fail(path, where + ": rotation quaternion is zero");
+}
+
 std::map<uint32_t, ColmapCamera> parse_cameras_bin(const std::string& bytes, const std::string& path) {
   BinaryReader r(bytes, path);
   uint64_t n = r.read<uint64_t>();
@@ -80,6 +98,7 @@ std::map<uint32_t, ColmapCamera> parse_cameras_bin(const std::string& bytes, con
                      std::to_string(c.height));
     }
     for (int k = 0; k < m->num_params; ++k) c.params.push_back(r.read<double>());
+    check_camera_values(c, path);
     cams[c.id] = c;
   }
   return cams;
@@ -100,6 +119,7 @@ std::map<uint32_t, ColmapCamera> parse_cameras_txt(const std::string& bytes, con
                      " parameters, expected " + std::to_string(m->num_params));
     }
     if (c.width <= 0 || c.height <= 0) fail(path, "camera " + std::to_string(c.id) + " has a non-positive size");
+    check_camera_values(c, path);
     cams[c.id] = c;
   }
   return cams;
@@ -118,6 +138,7 @@ std::vector<ColmapImage> parse_images_bin(const std::string& bytes, const std::s
     for (int k = 0; k < 3; ++k) im.tvec[k] = r.read<double>();
     im.camera_id = r.read<uint32_t>();
     im.name = r.read_cstring();
+    check_image_pose(im, path);
     uint64_t np = r.read<uint64_t>();
     r.require_records(np, 24, "2D points");
     im.xys.resize(np);
@@ -149,6 +170,7 @@ std::vector<ColmapImage> parse_images_txt(const std::string& bytes, const std::s
           im.tvec[2] >> im.camera_id >> im.name)) {
       fail(path, "malformed image line: " + lines[i]);
     }
+    check_image_pose(im, path);
     ++i;
     if (i < lines.size()) {
       std::istringstream p(lines[i]);

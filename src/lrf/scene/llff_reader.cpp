@@ -3,6 +3,7 @@
 #include <unordered_map>
 
 #include "lrf/core/error.h"
+#include "lrf/core/finite.h"
 #include "lrf/core/log.h"
 #include "lrf/core/npy.h"
 #include "lrf/scene/colmap_model.h"
@@ -13,6 +14,18 @@ namespace fs = std::filesystem;
 namespace lrf {
 
 std::string find_sparse_dir(const std::string& root);
+
+namespace {
+
+// What entry (row, col) of an LLFF row's 3x5 [R | t | hwf] block holds, for error messages.
+std::string llff_entry_name(int row, int col) {
+  static const char* const kColumns[] = {"down", "right", "back"};
+  if (col < 3) return "rotation's " + std::string(kColumns[col]) + " axis, component " + std::to_string(row);
+  if (col == 3) return std::string("camera position ") + "xyz"[row];
+  return row == 0 ? "image height" : row == 1 ? "image width" : "focal length";
+}
+
+}  // namespace
 
 RawScene read_llff_scene(const std::string& root, const std::string& images_dir) {
   std::string npy_path = (fs::path(root) / "poses_bounds.npy").string();
@@ -53,6 +66,10 @@ RawScene read_llff_scene(const std::string& root, const std::string& images_dir)
   for (int64_t i = 0; i < rows; ++i) {
     const double* r = &a.data[i * 17];
     auto at = [&](int row, int col) { return r[row * 5 + col]; };
+    // The near/far bounds (the last two numbers) are not used, so only the pose block is checked.
+    const std::string view = "row " + std::to_string(i) + " (" + files[i] + ")";
+    for (int row = 0; row < 3; ++row)
+      for (int col = 0; col < 5; ++col) require_finite(at(row, col), npy_path, view, llff_entry_name(row, col));
     RawView v;
     v.name = files[i];
     v.image_rel = (fs::path(images_dir) / files[i]).string();

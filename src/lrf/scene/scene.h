@@ -75,6 +75,12 @@ class Scene {
   Eigen::Vector3d camera_mean() const;
 };
 
+// The fewest pixels per side a view may have after --downscale and the crop to multiples of 8: 32 pixels
+// are 4 cells of the autoencoders' 1/8-resolution latent. Below that a latent view is a cell or two per
+// side, all border for the decoder's 3x3 convolutions, with nothing left to reconstruct. (`--downscale
+// 1000` on fern used to train on 1x1 images and exit 0.)
+constexpr int kMinImageSide = 32;
+
 // How view images are made from their files; fields fitted to other images are not reused by `compare` or
 // `pipeline`. 2: Lanczos undistortion at the file's resolution, then the area resize (1: the resize, then a
 // bilinear undistortion, which blurred every distorted scene's images).

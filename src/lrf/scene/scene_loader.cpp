@@ -109,7 +109,7 @@ std::vector<int> split_test(const Scene& scene, const RawScene& raw, const Scene
     }
     return test;
   }
-  if (o.test_every < 0) fail("--test-every must be >= 0");
+  if (o.test_every < 0) fail_usage("--test-every must be >= 0");
   if (o.test_every == 0) return test;
   for (size_t i = 0; i < scene.views.size(); i += o.test_every) test.push_back(static_cast<int>(i));
   return test;
@@ -146,7 +146,7 @@ std::vector<Eigen::Vector2d> nominal_to_view_pixels(const View& v, const std::ve
 Scene load_scene(const std::string& root, const SceneOptions& o) {
   std::string format = o.format.empty() ? detect_scene_format(root) : o.format;
   if (!fs::is_directory(root)) fail(root, "scene folder not found");
-  if (o.downscale < 1) fail("--downscale must be >= 1");
+  if (o.downscale < 1) fail_usage("--downscale must be >= 1");
   std::string images_dir = o.images_dir.empty() ? default_images_dir(root) : o.images_dir;
   if (!fs::is_directory(fs::path(root) / images_dir)) fail((fs::path(root) / images_dir).string(), "image folder not found");
 
@@ -197,11 +197,18 @@ Scene load_scene(const std::string& root, const SceneOptions& o) {
     v.distorted_camera = rv.camera.resized(v.resize_width, v.resize_height);
     int w = v.resize_width, h = v.resize_height;
     if (o.crop_to_multiple_of_8) {
-      if (w < 8 || h < 8) fail(v.image_path, "image too small to crop to a multiple of 8");
       v.crop_x = (w % 8) / 2;
       v.crop_y = (h % 8) / 2;
       w -= w % 8;
       h -= h % 8;
+    }
+    if (w < kMinImageSide || h < kMinImageSide) {
+      const std::string after = "--downscale " + std::to_string(o.downscale) +
+                                (o.crop_to_multiple_of_8 ? " and the crop to multiples of 8" : "");
+      fail(v.image_path, "the " + std::to_string(v.file_width) + "x" + std::to_string(v.file_height) + " image is " +
+                             std::to_string(w) + "x" + std::to_string(h) + " after " + after + "; lrf needs at least " +
+                             std::to_string(kMinImageSide) + " pixels per side (use a smaller --downscale or a larger "
+                             "image folder)");
     }
     v.camera = v.distorted_camera.cropped(v.crop_x, v.crop_y, w, h);
     v.nominal_width = rv.camera.width;
@@ -220,7 +227,7 @@ Scene load_scene(const std::string& root, const SceneOptions& o) {
     if (!test.count(i)) scene.train_indices.push_back(i);
   }
   if (scene.train_indices.empty()) fail(root, "no training views left after the train/test split");
-  if (o.train_views < 0) fail("--train-views must be >= 0");
+  if (o.train_views < 0) fail_usage("--train-views must be >= 0");
   if (o.train_views > 0) {
     scene.train_indices = evenly_spaced(scene.train_indices, o.train_views, root);
     scene.few_shot_views = o.train_views;

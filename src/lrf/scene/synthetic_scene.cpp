@@ -195,7 +195,7 @@ Eigen::Vector3d synthetic_trace(const Eigen::Vector3d& origin, const Eigen::Vect
 
 std::vector<Camera> synthetic_cameras(const SyntheticOptions& o) {
   int W, H;
-  if (!parse_size(o.size, &W, &H)) fail("--size must be WxH with 8 <= W, H <= 8192, got '" + o.size + "'");
+  if (!parse_size(o.size, &W, &H)) fail_usage("--size must be WxH with 8 <= W, H <= 8192, got '" + o.size + "'");
   std::mt19937 rng(o.seed);
   std::uniform_real_distribution<double> u(-1, 1);
   const double f = 0.8 * W;
@@ -227,9 +227,9 @@ std::vector<Camera> synthetic_cameras(const SyntheticOptions& o) {
 
 void write_synthetic_scene(const std::string& dir, const SyntheticOptions& o) {
   int W, H;
-  if (!parse_size(o.size, &W, &H)) fail("--size must be WxH with 8 <= W, H <= 8192, got '" + o.size + "'");
-  if (o.views < 2 || o.views > 1000) fail("--views must be in [2, 1000]");
-  if (o.points < 0 || o.points > 1000000) fail("--points must be in [0, 1000000]");
+  if (!parse_size(o.size, &W, &H)) fail_usage("--size must be WxH with 8 <= W, H <= 8192, got '" + o.size + "'");
+  if (o.views < 2 || o.views > 1000) fail_usage("--views must be in [2, 1000]");
+  if (o.points < 0 || o.points > 1000000) fail_usage("--points must be in [0, 1000000]");
   if (fs::exists(dir) && !fs::is_empty(dir)) fail(dir, "output folder exists and is not empty");
   fs::create_directories(fs::path(dir) / "images");
   fs::create_directories(fs::path(dir) / "sparse" / "0");

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/core/error.h"
+#include "lrf/core/finite.h"
 #include "lrf/scene/raw_scene.h"
 
 namespace fs = std::filesystem;
@@ -66,7 +67,10 @@ void parse_transforms(const std::string& text, const std::string& path, const Tr
         c2w(r, c) = row[c].get<double>();
       }
     }
-    if (!c2w.allFinite()) fail(path, "transform_matrix of '" + v.image_rel + "' is not finite");
+    const std::string frame = "frame '" + v.image_rel + "'";
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c)
+        require_finite(c2w(r, c), path, frame, "transform_matrix[" + std::to_string(r) + "][" + std::to_string(c) + "]");
     // OpenGL camera (x right, y up, z back) -> OpenCV (x right, y down, z forward).
     Eigen::Matrix3d R = c2w.topLeftCorner<3, 3>();
     R.col(1) *= -1;
@@ -99,12 +103,15 @@ void parse_transforms(const std::string& text, const std::string& path, const Tr
     } else if (has(fr, j, "camera_angle_y")) {
       fy = 0.5 * h / std::tan(0.5 * number(fr, j, "camera_angle_y", 0));
     }
-    if (!(fx > 0 && fy > 0 && std::isfinite(fx) && std::isfinite(fy))) fail(path, "non-positive or infinite focal length");
+    require_finite(fx, path, frame, "focal length fx");
+    require_finite(fy, path, frame, "focal length fy");
+    if (!(fx > 0 && fy > 0)) fail(path, frame + ": non-positive focal length");
     v.camera.fx = fx;
     v.camera.fy = fy;
     v.camera.cx = number(fr, j, "cx", w / 2);
     v.camera.cy = number(fr, j, "cy", h / 2);
-    if (!std::isfinite(v.camera.cx) || !std::isfinite(v.camera.cy)) fail(path, "principal point is not finite");
+    require_finite(v.camera.cx, path, frame, "principal point cx");
+    require_finite(v.camera.cy, path, frame, "principal point cy");
     const char* keys[] = {"k1", "k2", "p1", "p2", "k3", "k4"};
     for (int k = 0; k < 6; ++k) v.distortion.k[k] = number(fr, j, keys[k], 0);
     if (camera_model == "OPENCV_FISHEYE") {
@@ -112,8 +119,7 @@ void parse_transforms(const std::string& text, const std::string& path, const Tr
       v.distortion.fisheye = true;
       for (int k = 0; k < 4; ++k) v.distortion.k[k] = number(fr, j, keys[k == 0 ? 0 : k == 1 ? 1 : k + 2], 0);
     }
-    for (double k : v.distortion.k)
-      if (!std::isfinite(k)) fail(path, "distortion coefficients of '" + v.image_rel + "' are not finite");
+    for (int k = 0; k < 8; ++k) require_finite(v.distortion.k[k], path, frame, "distortion coefficient " + std::to_string(k));
     if (names) names->push_back(v.name);
     raw->views.push_back(std::move(v));
   }

@@ -6,6 +6,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
 #include "lrf/splat/ply_io.h"
+#include "lrf/splat/run/render_size.h"
 
 namespace fs = std::filesystem;
 
@@ -55,9 +56,10 @@ FieldRun open_field_run(const std::string& out) {
 }
 
 Camera scaled_camera(const Camera& camera, double scale, int width, int height) {
+  check_render_options(scale, width, height);
   if (width > 0 && height > 0) return camera.resized(width, height);
-  if (scale <= 0) fail("--scale must be positive");
   if (scale == 1.0) return camera;
+  check_scaled_size(camera.width, camera.height, scale);
   return camera.resized(std::max(1, int(std::lround(camera.width * scale))),
                         std::max(1, int(std::lround(camera.height * scale))));
 }

@@ -26,7 +26,8 @@ nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o
 // Throws lrf::Error naming the file when config.json or point_cloud.ply is missing or inconsistent.
 FieldRun open_field_run(const std::string& out);
 
-// A view's camera at `scale` times the training resolution, or at width x height when both are > 0.
+// A view's camera at `scale` times the training resolution, or at width x height when both are > 0;
+// throws lrf::UsageError outside the bounds of render_size.h.
 Camera scaled_camera(const Camera& camera, double scale, int width, int height);
 
 }  // namespace lrf::splat

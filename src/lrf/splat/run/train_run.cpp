@@ -12,6 +12,7 @@
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/stop_request.h"
 #include "lrf/splat/ply_io.h"
 
 namespace fs = std::filesystem;
@@ -46,23 +47,48 @@ bool run_finished(const std::string& out) {
   return read_json_file(config.string()).contains("result");
 }
 
-FolderLock prepare_output_dir(const std::string& out, bool force, bool resume) {
+bool stopped_before_first_checkpoint(const std::string& out) {
+  const fs::path config = fs::path(out) / "config.json";
+  std::error_code ec;
+  if (!fs::exists(config, ec) || holds_checkpoint(out)) return false;
+  for (const char* field : {"point_cloud.ply", "field.safetensors"})
+    if (fs::exists(fs::path(out) / field, ec)) return false;
+  try {
+    const nlohmann::json j = read_json_file(config.string());
+    return j.is_object() && j.contains("command") && j.contains("versions") && !j.contains("result");  // run_record's
+  } catch (const Error&) {
+    return false;
+  }
+}
+
+void fail_no_checkpoint(const std::string& checkpoint, const std::string& out) {
+  fail(checkpoint, "--resume: no checkpoint to resume from" +
+                       std::string(stopped_before_first_checkpoint(out)
+                                       ? "; the run stopped before its first checkpoint: run the same command "
+                                         "without --resume to start it again"
+                                       : ""));
+}
+
+OutputFolder prepare_output_dir(const std::string& out, bool force, bool resume) {
   std::error_code ec;
   if (fs::exists(out) && !fs::is_directory(out)) fail(out, "exists and is not a folder");
-  if (resume && !fs::exists(checkpoint_path(out)))
-    fail(checkpoint_path(out), "--resume: no checkpoint to resume from");
+  if (resume && !fs::exists(checkpoint_path(out))) fail_no_checkpoint(checkpoint_path(out), out);
+  std::vector<std::string> created = missing_folders(out);
   fs::create_directories(out, ec);
   if (ec) fail(out, "cannot create folder: " + ec.message());
   // Locked before anything in it is looked at or removed: a job still writing it makes this one stop here.
-  FolderLock lock(out);
+  // Claimed at once, so that a failure below removes what this job created.
+  OutputFolder claimed(FolderLock(out), out, std::move(created));
   bool non_empty = false;
   for (const auto& e : fs::directory_iterator(out)) non_empty = non_empty || e.path().filename() != ".lock";
-  if (non_empty && !force && !resume)
-    fail(out, "output folder exists; pass --resume to continue its run or --force to overwrite it");
-  if (resume && !fs::exists(checkpoint_path(out)))
-    fail(checkpoint_path(out), "--resume: no checkpoint to resume from");
+  if (non_empty && !force && !resume) {
+    if (!stopped_before_first_checkpoint(out))
+      fail(out, "output folder exists; pass --resume to continue its run or --force to overwrite it");
+    log_info(out + " holds a run that stopped before its first checkpoint: starting it again");
+  }
+  if (resume && !fs::exists(checkpoint_path(out))) fail_no_checkpoint(checkpoint_path(out), out);
   if (force && !resume) fs::remove(checkpoint_path(out), ec);
-  return lock;
+  return claimed;
 }
 
 RunSummary run_training(Trainer& trainer, const RunOptions& o) {
@@ -106,6 +132,8 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
     write_field();
   };
 
+  // Ctrl-C or SIGTERM: a checkpoint at the next step boundary, then Interrupted (the CLI exits with 130 / 143).
+  const StopOnSignals stop_on_signals;
   RunSummary summary;
   double loss_sum = 0;
   int64_t loss_count = 0;
@@ -153,6 +181,10 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
       }
       progress.update(r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}});
       if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
+      if (stop_signal() && !trainer.done()) {
+        save();
+        throw_interrupted(trainer.steps_done(), ckpt);
+      }
     }
     save();
   } catch (const TrainingDiverged& e) {

@@ -9,15 +9,24 @@
 #include <functional>
 #include <string>
 
-#include "lrf/core/folder_lock.h"
+#include "lrf/splat/run/output_folder.h"
 #include "lrf/splat/train/trainer.h"
 
 namespace lrf::splat {
 
-// Refuses an existing non-empty OUT unless force or resume; creates it otherwise. With force (and no
-// resume) a stale checkpoint is removed so that the run starts afresh. Returns the folder's lock (see
-// core/folder_lock.h): hold it for as long as the job writes OUT; a second job on OUT is refused.
-[[nodiscard]] FolderLock prepare_output_dir(const std::string& out, bool force, bool resume);
+// Refuses an existing non-empty OUT unless force or resume, or unless it holds only a run that stopped before
+// its first checkpoint (which is started afresh); creates OUT otherwise. With force (and no resume) a stale
+// checkpoint is removed so that the run starts afresh. Returns the claimed folder (output_folder.h): hold it
+// for as long as the job writes OUT; a second job on OUT is refused, and a job that fails before its first
+// checkpoint removes the OUT it created.
+[[nodiscard]] OutputFolder prepare_output_dir(const std::string& out, bool force, bool resume);
+
+// Whether OUT holds what a run leaves when it is killed (or fails in a folder it did not create) before its
+// first checkpoint: its config.json without a "result", and no checkpoint or field. A rerun takes it over.
+bool stopped_before_first_checkpoint(const std::string& out);
+// Throws lrf::Error naming `checkpoint`: --resume found none in OUT (saying how to start again when the
+// run stopped before its first one).
+[[noreturn]] void fail_no_checkpoint(const std::string& checkpoint, const std::string& out);
 
 std::string checkpoint_path(const std::string& out);
 
