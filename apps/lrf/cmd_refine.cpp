@@ -10,10 +10,10 @@ namespace {
 lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   auto* cmd = root.add_subcommand(
       "refine",
-      "Refine a fitted latent field through the decoder: keep optimising (and densifying) its Gaussians so that "
-      "their rendered latents decode into the scene's training images at full resolution (3DGS's 0.8 L1 + 0.2 "
-      "D-SSIM image loss), by default adapting the decoder to those views with them. Writes a new latent run to "
-      "OUT that `lrf eval` / `render` decode with the decoder it was refined through; checkpoints, progress, "
+      "Refine a fitted latent field through the decoder: keep optimising its Gaussians so that their rendered "
+      "latents decode into the scene's training images at full resolution (3DGS's 0.8 L1 + 0.2 D-SSIM image "
+      "loss), by default adapting the decoder's coarse layers to those views with them. Writes a new latent run "
+      "to OUT that `lrf eval` / `render` decode with the decoder it was refined through; checkpoints, progress, "
       "--resume");
   auto o = std::make_shared<lrf::RefineOptions>();
   cmd->add_option("run", o->run, "A finished latent field (`lrf train --space latent` folder)")->required();
