@@ -82,6 +82,7 @@ double source_seconds(const nlohmann::json& source_config) {
 std::string refine_description(const RefineOptions& o) {
   std::ostringstream s;
   s << o.steps << " steps";
+  if (o.lr_scale != 1) s << " at Stage II's rates x" << o.lr_scale;
   if (o.crop > 0) s << " on " << o.crop << " px windows";
   if (o.decoder_lr > 0) {
     s << ", decoder adapted at Adam rate " << o.decoder_lr;

@@ -88,8 +88,8 @@ struct RefineResult {
 
 RefineResult refine_latent_field(const RefineOptions& options);
 
-// The settings that shape a refined field, in words for tables' notes: "2000 steps, decoder adapted at
-// Adam rate 0.0001, densified until step 1000".
+// The settings that shape a refined field, in words for tables' notes: "1000 steps at Stage II's rates x2,
+// decoder adapted at Adam rate 0.0002 up to 2x the latent resolution, cameras jittered by up to 7 px".
 std::string refine_description(const RefineOptions& options);
 
 // The options as recorded in OUT/config.json under "refine"."options".
