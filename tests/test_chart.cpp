@@ -35,8 +35,16 @@ TEST(Chart, DrawsOneLinePerSeriesWithItsPointsAndLegend) {
   EXPECT_NE(svg.find(">22.5</text>"), std::string::npos);
   EXPECT_NE(svg.find(">20</text>"), std::string::npos);
   EXPECT_EQ(svg.find(">700</text>"), std::string::npos);
-  // The first series' last point sits at the plot's right edge, x = 64 + 640 - 64 - 170.
+  // The first series' last point sits at the plot's right edge, x = 64 + the plot's 406 pixels; short names
+  // leave the picture 640 pixels wide.
   EXPECT_NE(svg.find("470,"), std::string::npos);
+  EXPECT_NE(svg.find("width=\"640\""), std::string::npos);
+  // A long name widens the legend's column instead of running off the picture (it was cut at 640 px).
+  lrf::Chart long_names = chart;
+  long_names.series[0].name = "earlier defaults (2000 steps, densified until 1000)";  // 51 characters
+  const std::string wide = lrf::svg_chart(long_names);
+  EXPECT_NE(wide.find("width=\"847.5\""), std::string::npos) << wide.substr(0, 200);  // 64 + 406 + 46 + 6.5 x 51
+  EXPECT_NE(wide.find("470,"), std::string::npos);
 
   chart.series[1].points.push_back({60, std::nan("")});
   EXPECT_NE(lrf::test::error_of([&] { lrf::svg_chart(chart); }).find("not finite"), std::string::npos);

@@ -12,7 +12,10 @@
 namespace lrf {
 namespace {
 
-constexpr double kWidth = 640, kHeight = 360, kLeft = 64, kRight = 170, kTop = 36, kBottom = 48;
+constexpr double kPlotWidth = 406, kHeight = 360, kLeft = 64, kRight = 170, kTop = 36, kBottom = 48;
+// About the width of one character of the legend's 11-pixel sans-serif text, so that the legend column
+// grows with its longest name instead of cutting it at the picture's edge.
+constexpr double kLegendCharWidth = 6.5;
 const char* const kColours[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#17becf"};
 
 // Ticks at 1, 2 or 5 times a power of ten, about `count` of them over [lo, hi], and the range they span.
@@ -58,13 +61,17 @@ std::string svg_chart(const Chart& chart) {
   }
   if (!std::isfinite(x_lo)) fail("chart '" + chart.title + "': no points to draw");
   const Ticks tx = ticks(x_lo, x_hi, 6), ty = ticks(y_lo, y_hi, 5);
-  const double pw = kWidth - kLeft - kRight, ph = kHeight - kTop - kBottom;
+  size_t longest_name = 0;
+  for (const auto& s : chart.series) longest_name = std::max(longest_name, s.name.size());
+  const double right = std::max(kRight, 46 + kLegendCharWidth * static_cast<double>(longest_name));
+  const double width = kLeft + kPlotWidth + right;
+  const double pw = kPlotWidth, ph = kHeight - kTop - kBottom;
   auto px = [&](double x) { return kLeft + (x - tx.lo) / (tx.hi - tx.lo) * pw; };
   auto py = [&](double y) { return kTop + ph - (y - ty.lo) / (ty.hi - ty.lo) * ph; };
   std::ostringstream svg;
   svg.precision(5);
-  svg << "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 " << kWidth << " " << kHeight
-      << "\" width=\"" << kWidth << "\" height=\"" << kHeight << "\" role=\"img\" aria-label=\""
+  svg << "<svg class=\"chart\" xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 " << width << " " << kHeight
+      << "\" width=\"" << width << "\" height=\"" << kHeight << "\" role=\"img\" aria-label=\""
       << html_escape(chart.title) << "\">\n";
   svg << "<text x=\"" << kLeft << "\" y=\"20\" font-size=\"14\" font-weight=\"bold\">" << html_escape(chart.title)
       << "</text>\n";
