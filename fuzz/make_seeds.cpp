@@ -129,11 +129,11 @@ int main(int argc, char** argv) {
     fs::path out(argv[1]);
     fs::path scene = out / "_scene";
     fs::remove_all(scene);
-    lrf::write_synthetic_scene(scene.string(), {4, "32x24", 0, 60});
+    lrf::write_synthetic_scene(scene.string(), {4, "40x32", 0, 60});  // lrf loads views of 32 px a side or more
     fs::path sparse = scene / "sparse" / "0";
     lrf::ColmapModel model = lrf::read_colmap_model(sparse.string());
     // A model with a distorted camera too, so that the intrinsics path sees several models.
-    model.cameras[2] = {2, "OPENCV", 32, 24, {30, 31, 16, 12, 0.01, -0.02, 0.001, 0.002}};
+    model.cameras[2] = {2, "OPENCV", 40, 32, {30, 31, 20, 16, 0.01, -0.02, 0.001, 0.002}};
     lrf::write_colmap_binary(sparse.string(), model);
     lrf::write_colmap_text(sparse.string(), model);
     const char* stems[] = {"cameras", "images", "points3D"};
@@ -159,7 +159,7 @@ int main(int argc, char** argv) {
     // intrinsics, distortion) from the synthetic scene's cameras.
     {
       nlohmann::json synthetic = {{"camera_angle_x", 0.69}, {"frames", nlohmann::json::array()}};
-      nlohmann::json studio = {{"fl_x", 30.0}, {"fl_y", 31.0}, {"cx", 16.0}, {"cy", 12.0}, {"w", 32}, {"h", 24},
+      nlohmann::json studio = {{"fl_x", 30.0}, {"fl_y", 31.0}, {"cx", 20.0}, {"cy", 16.0}, {"w", 40}, {"h", 32},
                                {"k1", 0.01}, {"k2", -0.02}, {"p1", 0.001}, {"p2", 0.0},
                                {"camera_model", "OPENCV"}, {"frames", nlohmann::json::array()}};
       int i = 0;
