@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <utility>
 
+#include "lrf/splat/run/train_run.h"
+
 namespace fs = std::filesystem;
 
 namespace lrf::splat {
@@ -26,7 +28,9 @@ OutputFolder::~OutputFolder() {
 
 bool holds_checkpoint(const std::string& out) {
   std::error_code ec;
-  return fs::exists(fs::path(out) / "checkpoint.pt", ec) || fs::exists(fs::path(out) / "checkpoint.safetensors", ec);
+  // The latent NeRF's file is nerf_checkpoint_path's (nerf/nerf_run.h), named here since splat/ does not
+  // include nerf/.
+  return fs::exists(checkpoint_path(out), ec) || fs::exists(fs::path(out) / "checkpoint.safetensors", ec);
 }
 
 std::vector<std::string> missing_folders(const std::string& path) {
