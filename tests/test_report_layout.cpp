@@ -46,7 +46,10 @@ TEST(ReportLayout, TablesFitA1280PixelWindow) {
   const std::string tab = browser.open_page("file://" + page);
   browser.call("Emulation.setDeviceMetricsOverride",
                {{"width", 1280}, {"height", 800}, {"deviceScaleFactor", 1}, {"mobile", false}}, tab);
-  ASSERT_TRUE(browser.wait_for(tab, "document.readyState === 'complete' && innerWidth === 1280", 30));
+  // The report's own document, not the about:blank the tab opened with (complete at once, which let the
+  // query below run before the report had loaded when the machine was busy).
+  ASSERT_TRUE(browser.wait_for(
+      tab, "location.protocol === 'file:' && document.readyState === 'complete' && innerWidth === 1280", 30));
   // How far each table reaches beyond its box (scrolls), and the page beyond the window.
   const auto overflow = browser.eval(tab, "Array.from(document.querySelectorAll('.table-wrap'))"
                                           ".map(w => w.scrollWidth - w.clientWidth)");
