@@ -455,6 +455,30 @@ TEST_F(RefineRun, DecoderAdaptedUpToAScaleKeepsItsFinerLayers) {
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(o); }).find("power of two"), std::string::npos);
 }
 
+// --lr-final decays the decoder's rate with the field's. Adam moves each weight by about its rate per step, so a decay to 1 % over the
+// run (a mean factor near 0.2) moves the decoder well under 0.7 of what the constant rate does.
+TEST_F(RefineRun, DecoderRateDecaysWithTheFields) {
+  auto constant = options("decay_constant", 8);
+  constant.decoder_lr = 1e-4;
+  constant.crop = 48;
+  lrf::refine_latent_field(constant);
+  auto decayed = constant;
+  decayed.out = *dir_ / "decay_whole";
+  decayed.lr_final = 0.01;
+  lrf::refine_latent_field(decayed);
+  auto stock = lrf::load_autoencoder(taef2());
+  auto moved = [&](const std::string& out) {
+    auto ae = lrf::load_autoencoder(taef2(), "", *dir_ / (out + "/decoder.safetensors"));
+    double sum = 0;
+    auto d = ae->decoder_state(), s = stock->decoder_state();
+    for (const auto& item : d) sum += (item.value() - s[item.key()]).abs().sum().item<double>();
+    return sum;
+  };
+  const double m_constant = moved("decay_constant"), m_decayed = moved("decay_whole");
+  EXPECT_GT(m_decayed, 0);
+  EXPECT_LT(m_decayed, 0.7 * m_constant);
+}
+
 // --densify-until: the field keeps growing where the image loss's screen-space gradient is large, and
 // such a run resumes exactly (the densification statistics travel in the checkpoint). Without it the
 // field keeps Stage II's Gaussians (the other tests' runs).

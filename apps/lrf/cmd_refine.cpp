@@ -35,7 +35,7 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
                   "geometry stays, only the latent features and the decoder adapt)")
       ->capture_default_str();
   cmd->add_option("--lr-final", o->lr_final,
-                  "Every learning rate decays log-linearly to this fraction of itself by the last step (1 = constant)")
+                  "Every learning rate, the decoder's with the field's, decays log-linearly to this fraction of itself by the last step (1 = constant)")
       ->capture_default_str();
   cmd->add_option("--decoder-lr", o->decoder_lr,
                   "Also adapt the decoder to this scene's training views, with Adam at this rate (0 = frozen); the "

@@ -1,6 +1,8 @@
 #include "lrf/refine/refine.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 #include <memory>
@@ -225,7 +227,11 @@ RefineResult refine_latent_field(const RefineOptions& o) {
   const double extent = src.config.value("extent", src.scene.camera_extent());
 
   if (decoder_adam) {
-    to.after_backward = [&](int64_t) {
+    to.after_backward = [&](int64_t step) {
+      // The decoder's rate follows the field's (--lr-final), so that a decaying run ends with a decoder
+      // that no longer follows the last views it saw.
+      const double t = std::clamp(double(step) / double(o.steps), 0.0, 1.0);
+      decoder_adam->set_lr(o.decoder_lr * std::exp(std::log(o.lr_final) * t));
       decoder_adam->step();
       decoder_adam->zero_grad();
     };
