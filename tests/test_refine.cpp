@@ -208,6 +208,32 @@ TEST(DecodedLoss, AShiftedViewIsComparedWithTheImageMovedByTheShift) {
             std::string::npos);
 }
 
+// The default length is a number of passes per training view (fern's 17 views: the 1000 steps it was
+// chosen with), taken from the source run's record; an explicit --steps stays as given.
+TEST(RefineSteps, DefaultLengthFollowsTheTrainingViews) {
+  lrf::RefineOptions o;
+  ASSERT_EQ(o.steps, 0);
+  EXPECT_EQ(lrf::refine_steps(o, 17), 1000);
+  EXPECT_EQ(lrf::refine_steps(o, 35), 2100);
+  EXPECT_EQ(lrf::refine_steps(o, 58), 3500);
+  EXPECT_EQ(lrf::refine_steps(o, 1), 100);
+  o.steps = 250;
+  EXPECT_EQ(lrf::refine_steps(o, 35), 250);
+  EXPECT_NE(lrf::refine_description(o).find("250 steps"), std::string::npos);
+  o.steps = 0;
+  EXPECT_NE(lrf::refine_description(o).find("60 steps per training view"), std::string::npos);
+
+  lrf::test::TempDir dir("refine_steps");
+  o.run = dir / "field";
+  fs::create_directories(o.run);
+  lrf::write_json_file(dir / "field/config.json", {{"train_views", 29}});
+  EXPECT_EQ(lrf::with_refine_steps(o).steps, 1700);
+  lrf::write_json_file(dir / "field/config.json", {{"space", "latent"}});
+  EXPECT_NE(lrf::test::error_of([&] { lrf::with_refine_steps(o); }).find("train_views"), std::string::npos);
+  o.steps = 300;
+  EXPECT_EQ(lrf::with_refine_steps(o).steps, 300);
+}
+
 // Mean image L1 of the decoded held-out views of a latent run (decoded by `decoder`, "" = the run's).
 double held_out_l1(const std::string& run_dir) {
   lrf::LatentRun run = lrf::open_latent_run(run_dir);

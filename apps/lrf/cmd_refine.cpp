@@ -20,7 +20,10 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   cmd->add_option("-o,--out", o->out, "Output folder of the refined field")->required();
   cmd->add_option("--decoder", o->decoder,
                   "Decoder weights to refine through, e.g. Stage III's (default: the run's own decoder)");
-  cmd->add_option("--steps", o->steps, "Optimisation steps (one training view each)")->capture_default_str();
+  cmd->add_option("--steps", o->steps,
+                  "Optimisation steps (one training view each); 0 = " + std::to_string(lrf::kRefineStepsPerView) +
+                      " per training view of the field, rounded to a hundred (fern: 1000)")
+      ->capture_default_str();
   cmd->add_option("--crop", o->crop,
                   "Side in pixels (multiple of 8) of a random square of the view supervised per step, decoded "
                   "exactly with the decoder's context around it; 0 = the whole view")

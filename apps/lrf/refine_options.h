@@ -12,7 +12,8 @@ namespace lrf::cli {
 // `rows` names the rows the options apply to in the help text (e.g. "latent-refined").
 inline void add_refine_options(CLI::App* cmd, RefineOptions* o, const std::string& rows) {
   const std::string p = rows + ": ";
-  cmd->add_option("--refine-steps", o->steps, p + "refinement steps (one training view each)")->capture_default_str();
+  cmd->add_option("--refine-steps", o->steps, p + "refinement steps (one training view each; 0 = " + std::to_string(kRefineStepsPerView) +
+                      " per training view)")->capture_default_str();
   cmd->add_option("--refine-crop", o->crop, p + "supervised square per step in pixels (0 = whole view)")
       ->capture_default_str();
   cmd->add_option("--refine-lr-scale", o->lr_scale, p + "multiplies Stage II's learning rates")->capture_default_str();

@@ -37,7 +37,7 @@ void check_options(const RefineOptions& o) {
   if (canonical_path(o.run) == canonical_path(o.out)) {
     fail(o.out, "refine writes a new run: choose another output folder");
   }
-  if (o.steps < 1) fail("refine: --steps must be at least 1");
+  if (o.steps < 0) fail("refine: --steps must be 0 (" + std::to_string(kRefineStepsPerView) + " per training view) or positive");
   if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
   if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
@@ -81,9 +81,26 @@ double source_seconds(const nlohmann::json& source_config) {
 
 }  // namespace
 
+int64_t refine_steps(const RefineOptions& o, int64_t train_views) {
+  if (o.steps > 0) return o.steps;
+  return std::max<int64_t>(100, (kRefineStepsPerView * train_views + 50) / 100 * 100);
+}
+
+RefineOptions with_refine_steps(RefineOptions o) {
+  if (o.steps != 0) return o;
+  const std::string config = (fs::path(o.run) / "config.json").string();
+  if (!fs::exists(config)) fail(config, "not found: refine needs a finished latent field");
+  const nlohmann::json c = read_json_file(config);
+  const int64_t views = c.value("train_views", int64_t(0));
+  if (views < 1) fail(config, "records no training views (\"train_views\"), so the default --steps is unknown: give --steps");
+  o.steps = refine_steps(o, views);
+  return o;
+}
+
 std::string refine_description(const RefineOptions& o) {
   std::ostringstream s;
-  s << o.steps << " steps";
+  if (o.steps > 0) s << o.steps << " steps";
+  else s << kRefineStepsPerView << " steps per training view";
   if (o.lr_scale != 1) s << " at Stage II's rates x" << o.lr_scale;
   if (o.crop > 0) s << " on " << o.crop << " px windows";
   if (o.decoder_lr > 0) {
@@ -121,9 +138,10 @@ nlohmann::json refine_resume_key(const RefineOptions& o) {
   return j;
 }
 
-RefineResult refine_latent_field(const RefineOptions& o) {
+RefineResult refine_latent_field(const RefineOptions& options) {
   using namespace lrf::splat;
-  check_options(o);
+  check_options(options);
+  const RefineOptions o = with_refine_steps(options);
   LatentRun src = open_latent_run(o.run);
   if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
   if (src.lift.defined())

@@ -27,7 +27,9 @@ struct RefineOptions {
   // "Choosing the refinement's defaults"): chosen on fern's validation split (14 training views fitted, 3
   // held out), where 1000 steps of them (22.56 dB) score as the earlier 2000-step defaults (Stage II's rates,
   // the whole decoder adapted at 1e-4, densified until step 1000: 22.50 dB) at a quarter of their time.
-  int64_t steps = 1000;
+  // 0 = kRefineStepsPerView steps per training view (refine_steps): on room's validation split (30 views)
+  // the held-out views still gained 0.8 dB from 1000 to 2000 steps, where fern's levelled off near 1000.
+  int64_t steps = 0;
   int crop = 0;          // side of the supervised square in image pixels (multiple of 8); 0 = the whole view
   // Multiplies Stage II's (Inria's) rates of features, opacities, scales, rotations. 2: on the validation
   // split +0.15 to +0.3 dB over 1 in the first 400 steps, level by 600; 4 no better than 2.
@@ -85,6 +87,16 @@ struct RefineResult {
   int64_t steps = 0, gaussians = 0;
   double seconds = 0, last_loss = 0, last_psnr = 0;
 };
+
+// The default length in steps per training view: each view is seen about this many times, whatever the
+// scene's size (fern: 17 views, 1000 steps; room: 35, 2100).
+constexpr int64_t kRefineStepsPerView = 60;
+// The length of a refinement of a field fitted on `train_views` views: options.steps, or with 0
+// kRefineStepsPerView per view rounded to a hundred (at least 100).
+int64_t refine_steps(const RefineOptions& options, int64_t train_views);
+// `options` with a default length (steps 0) resolved for its source run, from the training views its
+// config.json records; throws lrf::Error naming that file if it cannot be read.
+RefineOptions with_refine_steps(RefineOptions options);
 
 RefineResult refine_latent_field(const RefineOptions& options);
 

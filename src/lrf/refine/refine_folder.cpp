@@ -14,7 +14,8 @@ namespace fs = std::filesystem;
 
 namespace lrf {
 
-bool ensure_refined_field(RefineOptions r, const std::string& what, const std::string& remedy, bool start_over) {
+bool ensure_refined_field(RefineOptions options, const std::string& what, const std::string& remedy, bool start_over) {
+  RefineOptions r = with_refine_steps(options);
   const std::string config = (fs::path(r.out) / "config.json").string();
   if (!start_over && splat::run_finished(r.out)) {
     const nlohmann::json recorded = read_json_file(config);
