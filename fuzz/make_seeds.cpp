@@ -226,7 +226,7 @@ int main(int argc, char** argv) {
     {
       lrf::SceneOptions so;
       nlohmann::json rgb = lrf::run_record({{"scene", scene.string()}, {"iters", 300}, {"seed", 0}});
-      rgb.update(lrf::splat::scene_config(scene.string(), so, s));
+      rgb.update(lrf::splat::scene_config(scene.string(), so, s, (out / "run").string()));
       rgb["space"] = "rgb";
       rgb["sh_degree"] = 3;
       rgb["mip"] = false;

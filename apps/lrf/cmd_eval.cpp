@@ -14,6 +14,7 @@
 #include "lrf/splat/run/render_size.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/rgb/rgb_field.h"
+#include "scene_override_option.h"
 
 namespace fs = std::filesystem;
 
@@ -99,6 +100,7 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
   cmd->add_option("--lpips-weights", o->lpips_weights,
                   "Latent fields: LPIPS (VGG, lpips v0.1 layout: net.slice*/lin* keys) weights file; without it "
                   "metrics.json has \"lpips\": null and the reason");
+  lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o] { return run_eval(*o); });
 });
 

@@ -4,6 +4,7 @@
 
 #include "command.h"
 #include "lrf/refine/refine.h"
+#include "scene_override_option.h"
 
 namespace {
 
@@ -18,6 +19,7 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   auto o = std::make_shared<lrf::RefineOptions>();
   cmd->add_option("run", o->run, "A finished latent field (`lrf train --space latent` folder)")->required();
   cmd->add_option("-o,--out", o->out, "Output folder of the refined field")->required();
+  lrf::cli::add_scene_override_option(cmd);
   cmd->add_option("--decoder", o->decoder,
                   "Decoder weights to refine through, e.g. Stage III's (default: the run's own decoder)");
   cmd->add_option("--steps", o->steps,

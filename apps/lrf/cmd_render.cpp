@@ -21,6 +21,7 @@
 #include "lrf/splat/run/render_size.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/rgb/rgb_field.h"
+#include "scene_override_option.h"
 
 namespace fs = std::filesystem;
 
@@ -186,6 +187,7 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   cmd->add_option("--video", o->video, "--path: the MP4 file to write (H.264; default OUT/renders/PATH.mp4 unless "
                   "--frames-dir is given)");
   cmd->add_option("--frames-dir", o->frames_dir, "--path: also (or only) write the frames as PNG files into this folder");
+  lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o, split, frames, fps] {
     o->split_given = split->count() > 0;
     o->frames_given = frames->count() > 0;

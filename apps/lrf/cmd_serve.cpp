@@ -12,6 +12,7 @@
 #include "lrf/core/log.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/viewer/viewer_server.h"
+#include "scene_override_option.h"
 
 namespace {
 
@@ -59,6 +60,7 @@ lrf::cli::CommandRegistration reg(24, [](CLI::App& root) {
   cmd->add_option("--max-side", o->server.max_side, "Largest frame width or height a page may ask for")->capture_default_str();
   cmd->add_option("--jpeg-quality", o->server.jpeg_quality, "JPEG quality of the frames (1..100)")
       ->capture_default_str()->check(CLI::Range(1, 100));
+  lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o] { return run_serve(*o); });
 });
 

@@ -253,7 +253,7 @@ int run_train(const TrainOptions& o) {
 
   // config.json first: a folder being trained already says what it is.
   auto config = run_record(to_json(o));
-  config.update(scene_config(o.scene, so, scene));
+  config.update(scene_config(o.scene, so, scene, o.out));
   config["space"] = o.space;
   config["sh_degree"] = o.sh_degree;
   config["mip"] = o.mip;

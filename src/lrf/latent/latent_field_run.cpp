@@ -10,6 +10,7 @@
 #include "lrf/latent/latent_run.h"
 #include "lrf/latent/latent_scoring.h"
 #include "lrf/latent/trained_run_checks.h"
+#include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/ply_io.h"
 
@@ -42,7 +43,10 @@ LatentRun open_latent_run(const std::string& out) {
     fail(config_path, "the decoder the field was refined through changed since (" + run.decoder + "): refine again, "
                       "or restore the weights");
   }
-  run.scene = reload_trained_scene(c.field.scene_root, c.field.scene, c.resolution, config_path);
+  const std::string scene_root = run_scene_root(run.config, config_path);
+  run.scene = reload_trained_scene(scene_root, c.field.scene, c.resolution, config_path);
+  check_run_scene_views(run.scene, run.config, config_path);
+  run.config["scene"] = scene_root;  // where it was found: lrf refine records the config it copies
   const std::string ply = (fs::path(out) / "point_cloud.ply").string();
   if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
   if (c.feature_dim > 0) {

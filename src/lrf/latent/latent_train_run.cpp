@@ -86,7 +86,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   }
 
   auto config = run_record(options_json(o));
-  config.update(scene_config(o.scene, so, scene));
+  config.update(scene_config(o.scene, so, scene, o.out));
   config["space"] = "latent";
   config["sh_degree"] = o.sh_degree;
   config["mip"] = false;

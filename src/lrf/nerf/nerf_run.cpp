@@ -11,6 +11,7 @@
 #include "lrf/latent/latent_scoring.h"
 #include "lrf/latent/trained_run_checks.h"
 #include "lrf/nerf/nerf_render.h"
+#include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/run/run_config.h"
 
 namespace fs = std::filesystem;
@@ -38,10 +39,9 @@ NerfRun open_nerf_run(const std::string& out) {
   run.config = read_json_file(config_path);
   if (!run.config.is_object() || run.config.value("space", std::string()) != "latent-nerf")
     fail(config_path, "not a latent NeRF run (lrf train --space latent-nerf)");
-  std::string scene_root, identity;
+  std::string identity;
   std::vector<int> resolution;
   try {
-    scene_root = run.config.at("scene").get<std::string>();
     run.autoencoder = run.config.at("autoencoder").get<std::string>();
     run.encoder = run.config.value("encoder", std::string());
     identity = run.config.at("autoencoder_identity").get<std::string>();
@@ -51,8 +51,11 @@ NerfRun open_nerf_run(const std::string& out) {
     fail(config_path, std::string("missing or bad latent NeRF settings: ") + e.what());
   }
   check_autoencoder_unchanged(run.autoencoder, run.encoder, identity, config_path);
+  const std::string scene_root = run_scene_root(run.config, config_path);
   run.scene = reload_trained_scene(scene_root, splat::scene_options_from_config(run.config, config_path), resolution,
                                    config_path);
+  check_run_scene_views(run.scene, run.config, config_path);
+  run.config["scene"] = scene_root;
   const std::string field = nerf_field_path(out);
   if (!fs::exists(field)) fail(field, "not found: the run has not reached its first checkpoint (resume it with lrf train --resume)");
   run.field = NerfField::load(field);

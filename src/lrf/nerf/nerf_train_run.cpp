@@ -143,7 +143,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   NerfField field = NerfField::create(spec, o.seed);
 
   auto config = run_record(options_json(o));
-  config.update(splat::scene_config(o.scene, encoded.options, scene));
+  config.update(splat::scene_config(o.scene, encoded.options, scene, o.out));
   config["space"] = "latent-nerf";
   config["background"] = spec.background;
   config["autoencoder"] = o.autoencoder;

@@ -1,11 +1,9 @@
 #include "lrf/points/colmap_triangulation.h"
 
 #include <sqlite3.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <sstream>
@@ -16,28 +14,18 @@
 #include "lrf/core/log.h"
 #include "lrf/points/view_pairs.h"
 #include "lrf/scene/colmap_model.h"
+#include "lrf/scene/colmap_program.h"
 
 namespace fs = std::filesystem;
 
 namespace lrf {
 namespace {
 
-std::string quoted(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
-// Runs `colmap <args>` with its output appended to `log`; throws naming the step on failure.
-void run_colmap(const std::string& colmap, const std::string& step, const std::vector<std::string>& args,
-                const std::string& log) {
-  std::string cmd = quoted(colmap) + " " + step;
-  for (const auto& a : args) cmd += " " + quoted(a);
-  cmd += " >> " + quoted(log) + " 2>&1";
+// COLMAP's own output goes to the log; the terminal names the step.
+void run_step(const std::string& colmap, const std::string& step, const std::vector<std::string>& args,
+              const std::string& log) {
   log_info("colmap " + step);
-  const int status = std::system(cmd.c_str());
-  const int code = status == -1 ? -1 : (WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status));
-  if (code != 0) fail(log, "colmap " + step + " failed (exit code " + std::to_string(code) + "); its output is in this log");
+  run_colmap(colmap, step, args, log);
 }
 
 class Database {
@@ -99,10 +87,6 @@ std::string image_file_name(int view) {
 
 }  // namespace
 
-bool colmap_available(const std::string& colmap) {
-  return std::system((quoted(colmap) + " help > /dev/null 2>&1").c_str()) == 0;
-}
-
 TriangulatedPoints triangulate_with_colmap(const Scene& scene, const TriangulationOptions& t,
                                            const ColmapTriangulationOptions& o) {
   if (!colmap_available(o.colmap)) {
@@ -130,7 +114,7 @@ TriangulatedPoints triangulate_with_colmap(const Scene& scene, const Triangulati
   // The views as lrf sees them: undistorted, at the resolution in use, pinhole cameras.
   for (int i : ids) write_image_rgb((work / "images" / image_file_name(i)).string(), scene.load_image_u8(i));
   const std::string threads = std::to_string(o.threads > 0 ? o.threads : -1);
-  run_colmap(o.colmap, "feature_extractor",
+  run_step(o.colmap, "feature_extractor",
              {"--database_path", db_path, "--image_path", (work / "images").string(), "--ImageReader.camera_model",
               "PINHOLE", "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", threads,
               "--SiftExtraction.max_num_features", std::to_string(t.match.max_features)},
@@ -162,11 +146,11 @@ TriangulatedPoints triangulate_with_colmap(const Scene& scene, const Triangulati
   std::ostringstream pairs;
   for (auto [a, b] : overlapping_view_pairs(scene, ids, t.neighbours)) pairs << image_file_name(a) << " " << image_file_name(b) << "\n";
   write_file_atomic((work / "pairs.txt").string(), pairs.str());
-  run_colmap(o.colmap, "matches_importer",
+  run_step(o.colmap, "matches_importer",
              {"--database_path", db_path, "--match_list_path", (work / "pairs.txt").string(), "--match_type", "pairs",
               "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads},
              log);
-  run_colmap(o.colmap, "point_triangulator",
+  run_step(o.colmap, "point_triangulator",
              {"--database_path", db_path, "--image_path", (work / "images").string(), "--input_path",
               (work / "known").string(), "--output_path", (work / "triangulated").string(),
               "--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",

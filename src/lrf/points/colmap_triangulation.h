@@ -6,6 +6,7 @@
 #include <string>
 
 #include "lrf/points/scene_triangulation.h"
+#include "lrf/scene/colmap_program.h"  // colmap_available
 
 namespace lrf {
 
@@ -14,9 +15,6 @@ struct ColmapTriangulationOptions {
   std::string work_dir;           // "" = a fresh folder under the system's temporary folder, removed after
   int threads = 0;                // 0 = COLMAP's default (all cores)
 };
-
-// True when `colmap` can be run (`colmap help` exits with 0).
-bool colmap_available(const std::string& colmap = "colmap");
 
 // Throws lrf::Error when COLMAP is missing, a step fails (naming the step and its log file), or it
 // triangulates no point. Uses options.training_views_only, neighbours and max_features of `t`.

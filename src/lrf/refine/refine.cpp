@@ -23,6 +23,7 @@
 #include "lrf/latent/latent_run.h"
 #include "lrf/latent/latent_scoring.h"
 #include "lrf/refine/decoded_loss.h"
+#include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/render_field.h"
 #include "lrf/splat/run/train_run.h"
 #include "lrf/splat/train/loss.h"
@@ -255,6 +256,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
     };
   }
   nlohmann::json config = src.config;
+  config.update(scene_location_record(src.scene.root, o.out));  // relative to this run's folder
   config.erase("result");
   config["decoder"] = decoder;
   config["decoder_identity"] = decoder.empty() ? std::string() : weights_file_identity(decoder);

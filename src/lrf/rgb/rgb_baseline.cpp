@@ -53,7 +53,7 @@ void train_rgb_baseline(const RgbBaselineOptions& o) {
   to.background = torch::zeros({3});
   const double extent = scene.camera_extent();
   auto config = run_record({{"scene", scene_root}, {"iters", iters}, {"mip", mip}, {"seed", seed}, {"factor", o.factor}});
-  config.update(scene_config(scene_root, so, scene));
+  config.update(scene_config(scene_root, so, scene, out));
   config["space"] = "rgb";
   config["sh_degree"] = 3;
   config["mip"] = mip;

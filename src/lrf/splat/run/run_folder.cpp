@@ -5,6 +5,7 @@
 
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
+#include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/ply_io.h"
 #include "lrf/splat/run/render_size.h"
 
@@ -12,9 +13,9 @@ namespace fs = std::filesystem;
 
 namespace lrf::splat {
 
-nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o, const Scene& scene) {
-  nlohmann::json j;
-  j["scene"] = fs::absolute(scene_root).lexically_normal().string();
+nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o, const Scene& scene,
+                            const std::string& run_folder) {
+  nlohmann::json j = scene_location_record(scene_root, run_folder);
   j["scene_format"] = scene.format;
   j["images"] = o.images_dir;
   j["downscale"] = o.downscale;
@@ -45,7 +46,10 @@ FieldRun open_field_run(const std::string& out) {
   run.render.sh_degree = c.sh_degree;
   run.render.mip = c.mip;
   run.render.background = torch::tensor(c.background);
-  run.scene = load_scene(c.scene_root, c.scene);
+  const std::string scene_root = run_scene_root(run.config, config_path);
+  run.scene = load_scene(scene_root, c.scene);
+  check_run_scene_views(run.scene, run.config, config_path);
+  run.config["scene"] = scene_root;  // where it was found, for whatever reads the config from here
   const std::string ply = (fs::path(out) / "point_cloud.ply").string();
   if (!fs::exists(ply)) fail(ply, "not found: the run has not finished (resume it with lrf train --resume)");
   run.field = read_ply(ply);

@@ -20,10 +20,13 @@ struct FieldRun {
   FieldRenderOptions render;
 };
 
-// The keys of config.json that describe how to reload the scene and render the field.
-nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& options, const Scene& scene);
+// The keys of config.json that describe how to reload the scene and render the field, for a run written to
+// `run_folder` (the scene's place is recorded relative to it too).
+nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& options, const Scene& scene,
+                            const std::string& run_folder);
 
-// Throws lrf::Error naming the file when config.json or point_cloud.ply is missing or inconsistent.
+// Throws lrf::Error naming the file when config.json or point_cloud.ply is missing or inconsistent, or the
+// scene is not where config.json (or --scene, set_scene_override) says.
 FieldRun open_field_run(const std::string& out);
 
 // A view's camera at `scale` times the training resolution, or at width x height when both are > 0;

@@ -1,0 +1,341 @@
+#include "lrf/scene/scene_from_photos.h"
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <vector>
+
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/progress.h"
+#include "lrf/scene/colmap_model.h"
+#include "lrf/scene/colmap_program.h"
+#include "lrf/scene/photo_import.h"
+#include "lrf/scene/step_records.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+namespace {
+
+constexpr int kSteps = 6;
+
+// The absolute, normalised form of a path that may not exist yet, without a trailing separator.
+fs::path normalised(const std::string& path) {
+  fs::path p = fs::weakly_canonical(fs::absolute(path)).lexically_normal();
+  if (p.filename().empty()) p = p.parent_path();
+  return p;
+}
+
+bool is_within(const fs::path& inner, const fs::path& outer) {
+  auto i = inner.begin();
+  for (auto o = outer.begin(); o != outer.end(); ++o, ++i) {
+    if (i == inner.end() || *i != *o) return false;
+  }
+  return true;
+}
+
+void check_options(const SceneFromPhotosOptions& o) {
+  static const std::set<std::string> matchers = {"auto", "exhaustive", "sequential"};
+  if (!matchers.count(o.matcher)) fail_usage("--matcher must be auto, exhaustive or sequential");
+  static const std::set<std::string> models = {"OPENCV", "SIMPLE_RADIAL", "RADIAL", "PINHOLE", "SIMPLE_PINHOLE"};
+  if (!models.count(o.camera_model)) {
+    fail_usage("--camera-model must be OPENCV, SIMPLE_RADIAL, RADIAL, PINHOLE or SIMPLE_PINHOLE");
+  }
+  if (o.max_side < 0) fail_usage("--max-side must be 0 (keep the photos' size) or a number of pixels");
+  if (o.max_side > 0 && o.max_side < 64) fail_usage("--max-side " + std::to_string(o.max_side) + " is too small for "
+                                                    "feature matching (64 pixels at least)");
+  if (o.scene.empty()) fail_usage("give the scene folder to write with -o");
+  const fs::path photos = normalised(o.photos), scene = normalised(o.scene);
+  // The photos folder is never written to, and --force never removes anything of it.
+  if (is_within(scene, photos)) {
+    fail_usage("the scene folder " + o.scene + " lies inside the photos folder " + o.photos +
+               ", which lrf scene create never writes to: choose a scene folder elsewhere");
+  }
+  if (is_within(photos, scene)) {
+    fail_usage("the photos folder " + o.photos + " lies inside the scene folder " + o.scene +
+               ", which lrf scene create writes (and --force clears): keep the photos elsewhere");
+  }
+}
+
+// What an earlier run may have left in the scene folder; --force removes these and nothing else.
+const char* const kOwnEntries[] = {"colmap", "colmap.log", "images", "sparse", "images.partial", "sparse.partial"};
+
+// The scene folder may be new, empty, or an earlier run's (to resume); anything else is the user's.
+void check_scene_folder(const std::string& folder) {
+  const fs::path scene(folder);
+  std::error_code ec;
+  if (!fs::exists(scene, ec)) return;
+  if (!fs::is_directory(scene, ec)) fail(folder, "exists and is not a folder");
+  if (!fs::is_empty(scene, ec) && !fs::is_directory(scene / "colmap", ec) && !fs::exists(scene / "colmap.log", ec)) {
+    fail(folder, "exists, is not empty and was not written by lrf scene create (it has neither a colmap/ work "
+                 "folder nor colmap.log): give a new or empty folder");
+  }
+}
+
+void prepare_scene_folder(const SceneFromPhotosOptions& o) {
+  const fs::path scene(o.scene);
+  if (o.force) {
+    for (const char* entry : kOwnEntries) fs::remove_all(scene / entry);
+  }
+  fs::create_directories(scene / "colmap");
+}
+
+// A heading in the log before each COLMAP step, so that a failure's output is easy to find.
+void log_heading(const std::string& log, const std::string& text) {
+  std::ofstream out(log, std::ios::app);
+  out << "\n==== lrf scene create: " << text << " ====\n";
+}
+
+std::string count_of(size_t n, const std::string& what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
+// The mapper's models (sparse/0, sparse/1, ...) with the number of photos each registered.
+std::vector<std::pair<std::string, size_t>> mapper_models(const fs::path& sparse) {
+  std::vector<std::pair<std::string, size_t>> models;
+  std::error_code ec;
+  if (!fs::is_directory(sparse, ec)) return models;
+  for (const auto& e : fs::directory_iterator(sparse)) {
+    if (!e.is_directory() || !fs::exists(e.path() / "images.bin")) continue;
+    models.emplace_back(e.path().string(), read_colmap_images((e.path() / "images.bin").string()).size());
+  }
+  std::sort(models.begin(), models.end(), [](const auto& a, const auto& b) {
+    return a.second != b.second ? a.second > b.second : a.first < b.first;
+  });
+  return models;
+}
+
+// Hard links where the filesystem allows (no second copy of the images), else copies.
+void link_or_copy(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::create_hard_link(from, to, ec);
+  if (ec) fs::copy_file(from, to, fs::copy_options::overwrite_existing);
+}
+
+// Publishes the undistorted model as the scene: the old sparse/ goes first (the folder stops being a scene
+// lrf reads), then images/, and the new sparse/ arrives last, by a rename.
+void publish_scene(const fs::path& undistorted, const fs::path& scene) {
+  fs::remove_all(scene / "sparse");
+  fs::remove_all(scene / "images");
+  fs::remove_all(scene / "images.partial");
+  fs::remove_all(scene / "sparse.partial");
+  fs::create_directories(scene / "images.partial");
+  for (const auto& e : fs::directory_iterator(undistorted / "images")) {
+    if (e.is_regular_file()) link_or_copy(e.path(), scene / "images.partial" / e.path().filename());
+  }
+  fs::rename(scene / "images.partial", scene / "images");
+  fs::create_directories(scene / "sparse.partial" / "0");
+  for (const char* name : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    fs::copy_file(undistorted / "sparse" / name, scene / "sparse.partial" / "0" / name);
+  }
+  fs::rename(scene / "sparse.partial", scene / "sparse");
+}
+
+class StepTimer {
+ public:
+  StepTimer() : start_(std::chrono::steady_clock::now()) {}
+  std::string elapsed() const {
+    return Progress::format_duration(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count());
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+std::string step_label(int step) { return "[" + std::to_string(step) + "/" + std::to_string(kSteps) + "] "; }
+
+}  // namespace
+
+int min_registered_photos(int photos) { return std::max(3, (photos + 1) / 2); }
+
+SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) {
+  check_options(o);
+  const std::vector<std::string> names = list_photos(o.photos);
+  const int n = static_cast<int>(names.size());
+  if (n < 3) {
+    fail(o.photos, "holds " + count_of(names.size(), "photo") + "; structure from motion needs at least 3 "
+                   "overlapping photos of the scene (a few dozen, taken while walking around it, work best)");
+  }
+  check_scene_folder(o.scene);
+  if (!colmap_available(o.colmap)) {
+    fail("cannot run '" + o.colmap + "': COLMAP is not installed or not on PATH. lrf scene create runs COLMAP "
+         "(3.8 or later) for structure from motion; install it with `apt-get install colmap` (Debian, Ubuntu), "
+         "which scripts/install-deps.sh tries as an optional package");
+  }
+  prepare_scene_folder(o);
+
+  const fs::path scene(o.scene), work = fs::path(o.scene) / "colmap";
+  const std::string log = (scene / "colmap.log").string();
+  const std::string images = (work / "images").string(), database = (work / "database.db").string();
+  const std::string threads = std::to_string(o.threads > 0 ? o.threads : -1);
+  StepRecords records(work.string(), o.force);
+  log_info("scene " + o.scene + " from " + count_of(names.size(), "photo") + " in " + o.photos +
+           " (COLMAP's output goes to " + log + ")");
+
+  // 1. The photos COLMAP sees: copies, upright and downscaled. Their names and sizes key the step, so new,
+  // removed or edited photos start it again.
+  std::string photo_settings = "max_side " + std::to_string(o.max_side) + "\n";
+  for (const auto& name : names) {
+    std::error_code ec;
+    const fs::path p = fs::path(o.photos) / name;
+    photo_settings += name + " " + std::to_string(fs::file_size(p, ec)) + " " +
+                      std::to_string(fs::last_write_time(p, ec).time_since_epoch().count()) + "\n";
+  }
+  const std::string sizes_file = (work / "photo_sizes.txt").string();
+  std::vector<PreparedPhoto> prepared;
+  if (records.skip("photos", photo_settings, fs::exists(sizes_file))) {
+    log_info(step_label(1) + "photos: already prepared in " + images);
+    prepared = read_photo_sizes(sizes_file);
+  } else {
+    log_info(step_label(1) + "photos: copying " + count_of(names.size(), "photo") + " to " + images +
+             (o.max_side > 0 ? " (longer side at most " + std::to_string(o.max_side) + " px)" : " (full size)"));
+    StepTimer t;
+    fs::remove_all(images);
+    prepared = prepare_photos(o.photos, names, images, o.max_side);
+    write_photo_sizes(sizes_file, prepared);
+    records.finished("photos");
+    log_info("    done in " + t.elapsed());
+  }
+
+  // 2. Features. A phone capture is one camera at one zoom, so one camera shared by every photo: its
+  // intrinsics are then fitted to all of them at once, which keeps the focal length well determined even
+  // from few photos. OPENCV (focal lengths, principal point, two radial and two tangential terms) covers
+  // what is left of a phone lens's distortion, and undistortion at the end turns it into the pinhole
+  // cameras lrf works with. Photos of different sizes cannot share a camera: each then gets its own.
+  bool shared_camera = true;
+  for (const auto& p : prepared) {
+    shared_camera = shared_camera && p.width == prepared.front().width && p.height == prepared.front().height;
+  }
+  const std::string matcher =
+      o.matcher != "auto" ? o.matcher : n <= o.exhaustive_up_to ? "exhaustive" : "sequential";
+  // The matches are stored in the database the features start, so another matcher starts a fresh one.
+  const std::string feature_settings = "camera_model " + o.camera_model + "\nshared_camera " +
+                                       std::to_string(shared_camera) + "\nmatcher " + matcher;
+  if (records.skip("features", feature_settings, fs::exists(database))) {
+    log_info(step_label(2) + "features: already extracted (" + database + ")");
+  } else {
+    log_info(step_label(2) + "features: SIFT on " + count_of(prepared.size(), "photo") + ", " +
+             (shared_camera ? "one " + o.camera_model + " camera shared by all"
+                            : "one " + o.camera_model + " camera per photo (their sizes differ)"));
+    StepTimer t;
+    fs::remove(database);
+    log_heading(log, "colmap feature_extractor");
+    run_colmap(o.colmap, "feature_extractor",
+               {"--database_path", database, "--image_path", images, "--ImageReader.camera_model", o.camera_model,
+                "--ImageReader.single_camera", shared_camera ? "1" : "0", "--SiftExtraction.use_gpu", "0",
+                "--SiftExtraction.num_threads", threads},
+               log);
+    records.finished("features");
+    log_info("    done in " + t.elapsed());
+  }
+
+  // 3. Matches: every pair while that stays affordable; above, each photo with its neighbours in name
+  // order (a capture taken walking around the subject, as phones name photos in the order taken).
+  if (records.skip("matches", "", fs::exists(database))) {
+    log_info(step_label(3) + "matches: already matched (" + matcher + ")");
+  } else {
+    const size_t pairs = static_cast<size_t>(n) * static_cast<size_t>(n - 1) / 2;
+    log_info(step_label(3) + "matches: " +
+             (matcher == "exhaustive" ? "every pair of the " + count_of(prepared.size(), "photo") + " (" +
+                                            std::to_string(pairs) + " pairs)"
+                                      : "each of the " + count_of(prepared.size(), "photo") +
+                                            " with its neighbours in name order (sequential)"));
+    StepTimer t;
+    log_heading(log, "colmap " + matcher + "_matcher");
+    run_colmap(o.colmap, matcher + "_matcher",
+               {"--database_path", database, "--SiftMatching.use_gpu", "0", "--SiftMatching.num_threads", threads},
+               log);
+    records.finished("matches");
+    log_info("    done in " + t.elapsed());
+  }
+
+  // 4. Poses and points. The mapper may split the photos into several unconnected models.
+  const fs::path sparse = work / "sparse";
+  if (records.skip("mapper", "", !mapper_models(sparse).empty())) {
+    log_info(step_label(4) + "mapper: already reconstructed (" + sparse.string() + ")");
+  } else {
+    log_info(step_label(4) + "mapper: camera poses and 3D points from " + count_of(prepared.size(), "photo"));
+    StepTimer t;
+    fs::remove_all(sparse);
+    fs::create_directories(sparse);
+    log_heading(log, "colmap mapper");
+    // A model smaller than the rule below accepts is dropped by the mapper itself, which then starts again
+    // from another pair of photos: with a dozen photos, its first model sometimes holds only 3.
+    try {
+      run_colmap(o.colmap, "mapper",
+                 {"--database_path", database, "--image_path", images, "--output_path", sparse.string(),
+                  "--Mapper.num_threads", threads, "--Mapper.min_model_size",
+                  std::to_string(min_registered_photos(n))},
+                 log);
+    } catch (const Error& e) {
+      // Its usual reason is none of COLMAP's own words: the photos did not match.
+      throw Error(std::string(e.what()) + "(the mapper fails when the photos share too few features to start a "
+                  "model from: they need to overlap well, each part of the scene seen in several sharp photos)");
+    }
+    records.finished("mapper");
+    log_info("    done in " + t.elapsed());
+  }
+  const auto models = mapper_models(sparse);
+  if (models.empty()) {
+    fail(log, "COLMAP's mapper could not reconstruct any part of the scene from the " +
+                  count_of(prepared.size(), "photo") + " (too little overlap or texture between them?); the end "
+                  "of its output:\n" + file_tail(log, 15));
+  }
+  SceneFromPhotosResult result;
+  result.photos = n;
+  result.models = static_cast<int>(models.size());
+  result.registered = static_cast<int>(models.front().second);
+  if (models.size() > 1) {
+    std::string sizes;
+    for (const auto& m : models) sizes += (sizes.empty() ? "" : ", ") + std::to_string(m.second);
+    log_warn("COLMAP's mapper made " + std::to_string(models.size()) + " separate models (" + sizes +
+             " photos), which do not connect: keeping the largest, " + models.front().first +
+             "; photos of the others are left out");
+  }
+  if (result.registered < min_registered_photos(n)) {
+    fail(o.photos, "COLMAP registered only " + std::to_string(result.registered) + " of the " +
+                       count_of(prepared.size(), "photo") + " in one model; lrf scene create needs at least " +
+                       std::to_string(min_registered_photos(n)) + " (3, and half of the photos). Photos need "
+                       "to overlap well (each part of the scene in several photos, from nearby viewpoints) and "
+                       "to be sharp; COLMAP's output is in " + log);
+  }
+  log_info("    registered " + std::to_string(result.registered) + " of " + count_of(prepared.size(), "photo"));
+
+  // 5. Undistortion to pinhole cameras: the images and model lrf reads.
+  const fs::path undistorted = work / "undistorted";
+  const bool undistorted_present = fs::exists(undistorted / "sparse" / "images.bin") &&
+                                   fs::exists(undistorted / "sparse" / "cameras.bin") &&
+                                   fs::exists(undistorted / "sparse" / "points3D.bin");
+  if (records.skip("undistort", "model " + fs::path(models.front().first).filename().string(),
+                   undistorted_present)) {
+    log_info(step_label(5) + "undistort: already done (" + undistorted.string() + ")");
+  } else {
+    log_info(step_label(5) + "undistort: " + count_of(static_cast<size_t>(result.registered), "image") +
+             " to PINHOLE cameras");
+    StepTimer t;
+    fs::remove_all(undistorted);
+    log_heading(log, "colmap image_undistorter");
+    run_colmap(o.colmap, "image_undistorter",
+               {"--image_path", images, "--input_path", models.front().first, "--output_path", undistorted.string(),
+                "--output_type", "COLMAP"},
+               log);
+    records.finished("undistort");
+    log_info("    done in " + t.elapsed());
+  }
+
+  // 6. The scene itself.
+  if (records.skip("scene", "", fs::exists(scene / "sparse" / "0" / "images.bin") && fs::is_directory(scene / "images"))) {
+    log_info(step_label(6) + "scene: already written (" + o.scene + ")");
+  } else {
+    log_info(step_label(6) + "scene: writing " + (scene / "images").string() + " and " +
+             (scene / "sparse" / "0").string());
+    publish_scene(undistorted, scene);
+    records.finished("scene");
+  }
+  result.points = read_colmap_points((scene / "sparse" / "0" / "points3D.bin").string()).size();
+  return result;
+}
+
+}  // namespace lrf

@@ -1,0 +1,231 @@
+// lrf scene create: from plain photos to a scene through COLMAP. Its bad-input paths need no COLMAP; the
+// end-to-end test runs COLMAP on a dozen of tumbler's photos and is skipped only where COLMAP is missing.
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
+#include "lrf/core/atomic_file.h"
+#include "lrf/scene/colmap_model.h"
+#include "lrf/scene/colmap_program.h"
+#include "lrf/scene/scene.h"
+#include "lrf/scene/scene_from_photos.h"
+#include "lrf/scene/step_records.h"
+#include "test_helpers.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using lrf::test::run_lrf;
+using lrf::test::TempDir;
+
+std::string quoted(const std::string& s) { return "'" + s + "'"; }
+
+// `count` small textured photos, enough for the checks made before COLMAP runs.
+void write_photos(const std::string& dir, int count) {
+  fs::create_directories(dir);
+  for (int i = 0; i < count; ++i) {
+    cv::Mat image(48, 64, CV_8UC3);
+    cv::randu(image, cv::Scalar::all(0), cv::Scalar::all(255));
+    ASSERT_TRUE(cv::imwrite(dir + "/photo" + std::to_string(i) + ".jpg", image));
+  }
+}
+
+// File name -> size: what must stay as it was in the user's photos folder.
+std::map<std::string, uintmax_t> folder_listing(const std::string& dir) {
+  std::map<std::string, uintmax_t> listing;
+  for (const auto& e : fs::directory_iterator(dir)) listing[e.path().filename().string()] = e.file_size();
+  return listing;
+}
+
+TEST(SceneCreate, MissingPhotosFolderIsAnError) {
+  TempDir tmp("create_missing");
+  auto r = run_lrf("scene create /nonexistent/photos -o " + quoted(tmp / "scene"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("/nonexistent/photos: photos folder not found"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "scene"));
+}
+
+TEST(SceneCreate, FolderWithoutPhotosIsAnError) {
+  TempDir tmp("create_empty");
+  fs::create_directories(tmp / "photos/sub");
+  lrf::write_file_atomic(tmp / "photos/notes.txt", "not a photo");
+  cv::imwrite(tmp / "photos/sub/nested.jpg", cv::Mat(48, 64, CV_8UC3, cv::Scalar::all(128)));
+  auto r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find(tmp / "photos" + ": no photos"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "scene"));
+}
+
+TEST(SceneCreate, TooFewPhotosIsAnError) {
+  TempDir tmp("create_two");
+  write_photos(tmp / "photos", 2);
+  auto r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("holds 2 photos"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "scene"));
+}
+
+// Without colmap on PATH the command says what to install, and writes nothing.
+TEST(SceneCreate, MissingColmapSaysWhatToInstall) {
+  TempDir tmp("create_no_colmap");
+  write_photos(tmp / "photos", 3);
+  fs::create_directories(tmp / "empty_bin");
+  lrf::test::CommandResult r;
+  {
+    lrf::test::ScopedEnv path("PATH", (tmp / "empty_bin").c_str());
+    r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
+  }
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("COLMAP is not installed or not on PATH"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("apt-get install colmap"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "scene"));
+}
+
+TEST(SceneCreate, OutputInsidePhotosFolderIsAUsageError) {
+  TempDir tmp("create_inside");
+  write_photos(tmp / "photos", 3);
+  auto r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "photos/scene"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("inside the photos folder"), std::string::npos) << r.output;
+  r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp.str()));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("inside the scene folder"), std::string::npos) << r.output;
+  EXPECT_EQ(folder_listing(tmp / "photos").size(), 3u);
+}
+
+TEST(SceneCreate, ForeignNonEmptyOutputIsRefused) {
+  TempDir tmp("create_foreign");
+  write_photos(tmp / "photos", 3);
+  fs::create_directories(tmp / "scene");
+  lrf::write_file_atomic(tmp / "scene/keep.txt", "the user's");
+  auto r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene") + " --force");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("was not written by lrf scene create"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(tmp / "scene/keep.txt"));
+}
+
+TEST(SceneCreate, BadOptionsAreUsageErrors) {
+  TempDir tmp("create_options");
+  write_photos(tmp / "photos", 3);
+  const std::string base = "scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene");
+  EXPECT_EQ(run_lrf(base + " --matcher vocab").exit_code, 2);
+  EXPECT_EQ(run_lrf(base + " --max-side -5").exit_code, 2);
+  EXPECT_EQ(run_lrf(base + " --max-side 10").exit_code, 2);
+  EXPECT_EQ(run_lrf(base + " --camera-model FOV").exit_code, 2);
+  EXPECT_FALSE(fs::exists(tmp / "scene"));
+}
+
+TEST(SceneCreate, HelpDescribesEveryOption) {
+  auto r = run_lrf("scene create --help");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  for (const char* option : {"--output", "--max-side", "--matcher", "--camera-model", "--force", "fewer than half"}) {
+    EXPECT_NE(r.output.find(option), std::string::npos) << option << "\n" << r.output;
+  }
+}
+
+TEST(SceneCreate, RegisteredPhotosRule) {
+  EXPECT_EQ(lrf::min_registered_photos(3), 3);
+  EXPECT_EQ(lrf::min_registered_photos(5), 3);
+  EXPECT_EQ(lrf::min_registered_photos(7), 4);
+  EXPECT_EQ(lrf::min_registered_photos(12), 6);
+}
+
+TEST(SceneCreateSteps, SkipsWhatIsRecordedAndRerunsWhatFollowsAChange) {
+  TempDir tmp("step_records");
+  {
+    lrf::StepRecords first(tmp.str(), false);
+    EXPECT_FALSE(first.skip("a", "x 1", true));
+    first.finished("a");
+    EXPECT_FALSE(first.skip("b", "", true));
+    first.finished("b");
+  }
+  {
+    lrf::StepRecords same(tmp.str(), false);
+    EXPECT_TRUE(same.skip("a", "x 1", true));
+    EXPECT_TRUE(same.skip("b", "", true));
+    EXPECT_FALSE(same.skip("c", "", true)) << "a step never finished runs";
+  }
+  {
+    lrf::StepRecords missing_output(tmp.str(), false);
+    EXPECT_FALSE(missing_output.skip("a", "x 1", false));
+    EXPECT_FALSE(missing_output.skip("b", "", true)) << "what follows a rerun step reruns";
+  }
+  {
+    lrf::StepRecords changed(tmp.str(), false);
+    EXPECT_FALSE(changed.skip("a", "x 2", true));
+    changed.finished("a");
+    EXPECT_FALSE(changed.skip("b", "", true));
+    changed.finished("b");
+  }
+  {
+    lrf::StepRecords forced(tmp.str(), true);
+    EXPECT_FALSE(forced.skip("a", "x 2", true));
+    EXPECT_FALSE(forced.skip("b", "", true));
+  }
+}
+
+// Photos of noise have nothing to match: COLMAP reconstructs nothing, the error says so, and the scene
+// folder holds no model that lrf would read.
+TEST(SceneCreateColmap, UnrelatedPhotosAreAClearError) {
+  if (!lrf::colmap_available()) GTEST_SKIP() << "COLMAP is not installed (Debian: apt-get install colmap)";
+  TempDir tmp("create_noise");
+  write_photos(tmp / "photos", 4);
+  auto r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("colmap.log"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "scene/sparse"));
+  EXPECT_NE(lrf::test::error_of([&] { lrf::load_scene(tmp / "scene"); }), "");
+}
+
+// A dozen of tumbler's photos (a cup on a desk, taken around it), downscaled to 400 pixels: COLMAP
+// registers them and lrf reads the scene it makes, with pinhole cameras. A rerun resumes, doing nothing.
+TEST(SceneCreateColmap, TumblerPhotosBecomeAScene) {
+  if (!lrf::colmap_available()) GTEST_SKIP() << "COLMAP is not installed (Debian: apt-get install colmap)";
+  TempDir tmp("create_tumbler");
+  const int photos = 12;
+  fs::create_directories(tmp / "photos");
+  for (int i = 1; i <= photos; ++i) {
+    const std::string name = std::to_string(i) + ".jpg";
+    fs::copy_file(lrf::test::scene_dir("tumbler") + "/images/" + name, tmp / "photos/" + name);
+  }
+  const auto listing = folder_listing(tmp / "photos");
+  const std::string command =
+      "--threads 2 scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene") + " --max-side 400";
+  auto r = run_lrf(command);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("[4/6] mapper"), std::string::npos) << r.output;
+  EXPECT_TRUE(fs::exists(tmp / "scene/colmap.log"));
+  EXPECT_EQ(folder_listing(tmp / "photos"), listing) << "the photos folder is left as it was";
+
+  lrf::Scene scene = lrf::load_scene(tmp / "scene");
+  EXPECT_EQ(scene.format, "colmap");
+  EXPECT_GE(scene.views.size(), 10u) << r.output;
+  EXPECT_GT(scene.points.size(), 100u);
+  for (const auto& v : scene.views) {
+    const lrf::Camera& c = v.camera;
+    EXPECT_TRUE(std::isfinite(c.fx) && std::isfinite(c.fy) && std::isfinite(c.cx) && std::isfinite(c.cy)) << v.name;
+    EXPECT_GT(c.fx, 0) << v.name;
+    EXPECT_GT(c.fy, 0) << v.name;
+    EXPECT_GT(c.cx, 0) << v.name;
+    EXPECT_GT(c.cy, 0) << v.name;
+    EXPECT_LE(std::max(c.width, c.height), 400) << v.name;
+    EXPECT_FALSE(v.distortion.any()) << v.name;
+  }
+  for (const auto& [id, camera] : lrf::read_colmap_cameras(tmp / "scene/sparse/0/cameras.bin")) {
+    EXPECT_EQ(camera.model, "PINHOLE");
+  }
+
+  r = run_lrf(command);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("mapper: already reconstructed"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("scene: already written"), std::string::npos) << r.output;
+  EXPECT_EQ(lrf::load_scene(tmp / "scene").views.size(), scene.views.size());
+}
+
+}  // namespace
