@@ -158,3 +158,27 @@ TEST(LearningRates, ShortRunsMoveMeansAndShFaster) {
   EXPECT_EQ(same.position_init, inria.position_init);
   EXPECT_EQ(same.sh_dc, inria.sh_dc);
 }
+
+// decay_start holds every rate at its start for that fraction of the run, then runs the same log-linear
+// decay in the rest; 0 is the decay from the first step that Stage II's means have always had.
+TEST(LearningRates, DecayStartsAtItsFractionOfTheRun) {
+  using lrf::splat::LearningRates;
+  LearningRates r;
+  EXPECT_DOUBLE_EQ(r.decay_progress(0, 100), 0.0);
+  EXPECT_DOUBLE_EQ(r.decay_progress(25, 100), 0.25);
+  EXPECT_DOUBLE_EQ(r.decay_progress(100, 100), 1.0);
+  r.decay_start = 0.8;
+  EXPECT_EQ(r.decay_progress(50, 100), 0.0);
+  EXPECT_EQ(r.decay_progress(80, 100), 0.0);
+  EXPECT_NEAR(r.decay_progress(90, 100), 0.5, 1e-12);
+  EXPECT_DOUBLE_EQ(r.decay_progress(100, 100), 1.0);
+
+  r.others_final_factor = 0.1;
+  r.position_final = r.position_init / 100;
+  auto g = field(4, 4, 1);
+  const lrf::splat::GaussianAdam adam(g, r, 2.0, 100);
+  EXPECT_EQ(adam.others_factor(40), 1.0);
+  EXPECT_DOUBLE_EQ(adam.position_lr(40), 2.0 * r.position_init);
+  EXPECT_NEAR(adam.others_factor(90), std::sqrt(0.1), 1e-12);
+  EXPECT_NEAR(adam.position_lr(90), 2.0 * r.position_init / 10, 1e-15);
+}

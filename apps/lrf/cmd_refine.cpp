@@ -42,6 +42,10 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
   cmd->add_option("--lr-final", o->lr_final,
                   "Every learning rate, the decoder's with the field's, decays log-linearly to this fraction of itself by the last step (1 = constant)")
       ->capture_default_str();
+  cmd->add_option("--lr-decay-start", o->lr_decay_start,
+                  "With --lr-final below 1: the rates stay constant for this fraction of the run and decay in the "
+                  "rest (0 = from the first step)")
+      ->capture_default_str();
   cmd->add_option("--decoder-lr", o->decoder_lr,
                   "Also adapt the decoder to this scene's training views, with Adam at this rate (0 = frozen); the "
                   "adapted decoder is written to OUT/decoder.safetensors and decodes the refined field")

@@ -42,6 +42,7 @@ void check_options(const RefineOptions& o) {
   if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
   if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");
+  if (!(o.lr_decay_start >= 0 && o.lr_decay_start < 1)) fail("refine: --lr-decay-start must be in [0, 1)");
   if (!(o.geometry_lr_scale >= 0)) fail("refine: --geometry-lr-scale must be 0 (frozen geometry) or positive");
   if (!(o.decoder_lr >= 0)) fail("refine: --decoder-lr must be 0 (frozen decoder) or positive");
   if (o.decoder_scale < 0 || (o.decoder_scale & (o.decoder_scale - 1)) != 0)
@@ -121,7 +122,7 @@ nlohmann::json refine_options_json(const RefineOptions& o) {
   return {{"run", o.run},         {"out", o.out},           {"decoder", o.decoder},
           {"steps", o.steps},     {"crop", o.crop},         {"lr_scale", o.lr_scale},
           {"position_lr", o.position_lr}, {"geometry_lr_scale", o.geometry_lr_scale},
-          {"lr_final", o.lr_final}, {"lambda_ssim", o.lambda_ssim},
+          {"lr_final", o.lr_final}, {"lr_decay_start", o.lr_decay_start}, {"lambda_ssim", o.lambda_ssim},
           {"decoder_lr", o.decoder_lr}, {"decoder_scale", o.decoder_scale}, {"lambda_latent", o.lambda_latent},
           {"jitter", o.jitter},
           {"densify_until", o.densify_until}, {"densify_interval", o.densify_interval},
@@ -135,6 +136,8 @@ nlohmann::json refine_resume_key(const RefineOptions& o) {
   // A decaying schedule depends on the run's length: then --steps may not change on resume.
   for (const char* k : {"checkpoint_every", "score_every", "resume", "force", "out"}) j.erase(k);
   if (o.lr_final == 1) j.erase("steps");
+  // Runs refined before the option existed decayed from the first step: the same key.
+  if (o.lr_decay_start == 0) j.erase("lr_decay_start");
   j["run"] = canonical_path(o.run);
   return j;
 }
@@ -211,6 +214,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
   lr.position_init = o.position_lr * o.geometry_lr_scale;
   lr.position_final = o.position_lr * o.geometry_lr_scale * o.lr_final;
   lr.others_final_factor = o.lr_final;
+  lr.decay_start = o.lr_decay_start;
   lr.scales *= o.lr_scale * o.geometry_lr_scale;
   lr.rotations *= o.lr_scale * o.geometry_lr_scale;
   lr.opacity *= o.lr_scale * o.geometry_lr_scale;
@@ -249,7 +253,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
     to.after_backward = [&](int64_t step) {
       // The decoder's rate follows the field's (--lr-final), so that a decaying run ends with a decoder
       // that no longer follows the last views it saw.
-      const double t = std::clamp(double(step) / double(o.steps), 0.0, 1.0);
+      const double t = lr.decay_progress(step, o.steps);
       decoder_adam->set_lr(o.decoder_lr * std::exp(std::log(o.lr_final) * t));
       decoder_adam->step();
       decoder_adam->zero_grad();

@@ -40,6 +40,7 @@ struct RefineOptions {
   // Gaussian can move to serve one training view alone.
   double geometry_lr_scale = 1;
   double lr_final = 1;          // every rate decays log-linearly to this fraction of itself by the last step
+  double lr_decay_start = 0;    // ... starting at this fraction of the run (0 = from the first step)
   double lambda_ssim = 0.2;
   // > 0: the decoder is adapted to this scene with the field (Adam at this rate, on the same training
   // views); it is saved as OUT/decoder.safetensors and becomes the run's decoder. 0: frozen decoder.

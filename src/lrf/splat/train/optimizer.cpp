@@ -83,15 +83,21 @@ GaussianAdam::GaussianAdam(const Gaussians& g, const LearningRates& lr, double e
   }
 }
 
+double LearningRates::decay_progress(int64_t step, int64_t total) const {
+  const double t = std::clamp(double(step) / double(total), 0.0, 1.0);
+  if (decay_start <= 0) return t;
+  return std::clamp((t - decay_start) / (1.0 - decay_start), 0.0, 1.0);
+}
+
 double GaussianAdam::position_lr(int64_t step) const {
   if (lr_.position_init <= 0 || lr_.position_final <= 0) return 0;  // frozen means (no log of 0)
-  const double t = std::clamp(double(step) / double(total_), 0.0, 1.0);
+  const double t = lr_.decay_progress(step, total_);
   return extent_ * std::exp(std::log(lr_.position_init) * (1 - t) + std::log(lr_.position_final) * t);
 }
 
 double GaussianAdam::others_factor(int64_t step) const {
   if (lr_.others_final_factor == 1.0) return 1.0;
-  const double t = std::clamp(double(step) / double(total_), 0.0, 1.0);
+  const double t = lr_.decay_progress(step, total_);
   return std::exp(std::log(lr_.others_final_factor) * t);
 }
 

@@ -35,6 +35,12 @@ struct LearningRates {
   // The rates of scales, rotations, opacity and SH are multiplied by a factor going log-linearly from 1 at
   // the first step to this at the last (1: constant, as in Inria's 3DGS; refinement decays them).
   double others_final_factor = 1.0;
+  // The fraction of the run before which every rate stays at its start and after which the decays above
+  // run to their ends by the last step (0: from the first step). Refinement: constant rates make the
+  // progress, and a short decay at the end keeps the last views seen from deciding the result.
+  double decay_start = 0.0;
+  // Where `step` (0-based) of `total` steps is in the decays: 0 before decay_start, 1 at the end.
+  double decay_progress(int64_t step, int64_t total) const;
 
   // These rates with the means' and the SH coefficients' scaled by short_run_factor(iterations): a run
   // shorter than Inria's short run compresses its schedule by iterations / 7000
