@@ -38,7 +38,7 @@ nlohmann::json options_json(const LatentNerfOptions& o) {
           {"rays", o.rays},             {"samples", o.samples},
           {"log2_table", o.log2_table}, {"seed", o.seed},
           {"resume", o.resume},         {"force", o.force},
-          {"init_points", o.init_points.mode}};
+          {"init_points", o.init_points.mode}, {"preset", o.preset}};
 }
 
 // The rows of an earlier log up to `step`, and the elapsed time of the last of them (a resumed run
@@ -249,6 +249,7 @@ LatentNerfOptions recorded_nerf_options(const std::string& out) {
     o.log2_table = j.at("log2_table").get<int>();
     o.seed = j.at("seed").get<uint64_t>();
     o.init_points.mode = j.at("init_points").get<std::string>();
+    o.preset = j.value("preset", std::string("default"));  // runs from before presets had none
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
   }
