@@ -9,6 +9,7 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
+#include "lrf/core/expected_time.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
@@ -179,6 +180,8 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   };
 
   Progress progress("train-latent-nerf", o.iters, 2.0, trainer.steps_done());
+  const int64_t first_step = trainer.steps_done();
+  ExpectedTimeNotice expected(o.iters - first_step, "training only; scoring adds its own time");
   const StopOnSignals stop_on_signals;  // Ctrl-C / SIGTERM: a checkpoint at the next step, then Interrupted
   double loss_sum = 0, psnr_sum = 0, time_sum[4] = {0, 0, 0, 0}, last_loss = 0;
   int64_t count = 0;
@@ -203,6 +206,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
       count = 0;
     }
     progress.update(r.step, {{"loss", r.loss}, {"psnr", r.psnr}});
+    expected.observe(r.step - first_step, progress.elapsed_seconds());
     if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
     if (stop_signal() && !trainer.done()) {
       save();
