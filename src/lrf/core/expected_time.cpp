@@ -20,7 +20,8 @@ std::string expected_time_line(int64_t steps, int64_t measured_steps, double mea
   else
     std::snprintf(pace, sizeof pace, "%.0f ms/step", 1000 * per_step);
   std::string line = "expected: " + std::to_string(steps) + " steps at " + pace + " \u2248 " +
-                     Progress::format_duration(per_step * double(steps)) + " (an estimate from the first " +
+                     Progress::format_duration(measured_seconds * double(steps) / double(measured_steps)) +
+                     " (an estimate from the first " +
                      std::to_string(measured_steps) + " steps";
   return line + (note.empty() ? ")" : "; " + note + ")");
 }
