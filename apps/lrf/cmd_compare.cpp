@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "command.h"
+#include "preset_option.h"
 #include "refine_options.h"
 #include "init_points_options.h"
 #include "lrf/core/atomic_file.h"
@@ -62,7 +63,10 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();
   cmd->add_flag("--force", o->force, "Retrain and re-score every method instead of reusing finished ones");
   lrf::cli::add_init_points_options(cmd, &o->init_points);
-  lrf::cli::on_run(cmd, [o] {
+  auto preset = std::make_shared<std::string>();
+  lrf::cli::add_preset_option(cmd, lrf::compare_presets(), preset.get());
+  lrf::cli::on_run(cmd, [cmd, o, preset] {
+    lrf::cli::apply_preset(cmd, lrf::compare_presets(), *preset);
     if (o->init_points.cache_dir.empty()) o->init_points.cache_dir = o->cache_dir;  // triangulated points beside the latents
     lrf::check_init_points_mode(o->init_points.mode);
     lrf::run_compare(*o);

@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "command.h"
+#include "preset_option.h"
 #include "refine_options.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/pipeline/pipeline.h"
@@ -67,7 +68,10 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
                   "evaluations) whose inputs are finished, e.g. as a Slurm array; never Stage I, Stage III or the "
                   "tables. The same command without --shard then reuses everything the shards finished and does the "
                   "rest");
-  lrf::cli::on_run(cmd, [o, shard] {
+  auto preset = std::make_shared<std::string>();
+  lrf::cli::add_preset_option(cmd, lrf::pipeline_presets(), preset.get());
+  lrf::cli::on_run(cmd, [cmd, o, shard, preset] {
+    lrf::cli::apply_preset(cmd, lrf::pipeline_presets(), *preset);
     if (!shard->empty()) lrf::parse_shard(*shard, o.get());
     auto record = lrf::run_pipeline(*o);
     if (o->shard_count > 1) {

@@ -5,6 +5,7 @@
 
 #include "command.h"
 #include "init_points_options.h"
+#include "preset_option.h"
 #include "scene_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
@@ -51,6 +52,7 @@ struct TrainOptions {
   // --space latent-nerf
   int rays = 1024, samples = 32, hash_log2 = 17;
   bool nerf_option_set = false;  // one of the three above was given
+  std::string preset = lrf::kDefaultPreset;  // recorded, so that --resume can say when another is asked for
 };
 
 int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points) {
@@ -83,6 +85,7 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   l.force = o.force;
   l.sparse_adam = o.sparse_adam;
   l.init_points = points;
+  l.preset = o.preset;
   if (o.mip) lrf::fail_usage("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
   lrf::train_latent_field(l);
   return 0;
@@ -114,15 +117,26 @@ int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) 
   n.seed = o.seed;
   n.force = o.force;
   n.init_points = points;
+  n.preset = o.preset;
   lrf::nerf::train_latent_nerf(n);
   return 0;
 }
 
+// --resume keeps the preset a run started with: asking for another is refused, not silently ignored.
+void require_recorded_preset(const std::string& given, bool preset_given, const std::string& recorded,
+                             const std::string& config_path) {
+  if (!preset_given || given == recorded) return;
+  lrf::fail_usage("--preset " + given + ": this run was started with --preset " + recorded + " (" + config_path +
+                  ") and --resume keeps its recorded settings; drop --preset, or start a new run in another folder");
+}
+
 // --resume of a latent NeRF: its recorded options, except --iters, --checkpoint-every and --cache-dir when given.
-int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
+int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   if (given.nerf_option_set)
     lrf::fail_usage("--rays, --samples and --hash-log2 are fixed when a latent NeRF starts; --resume keeps the recorded ones");
   auto n = lrf::nerf::recorded_nerf_options(given.out);
+  require_recorded_preset(given.preset, preset_given, n.preset,
+                          (std::filesystem::path(given.out) / "config.json").string());
   n.resume = true;
   if (iters_given) n.iters = given.iters;
   if (checkpoint_given) n.checkpoint_every = given.checkpoint_every;
@@ -144,13 +158,13 @@ nlohmann::json to_json(const TrainOptions& o) {
           {"coarse_factor", o.coarse_factor}, {"coarse_until", o.coarse_until},
           {"feature_dim", o.feature_dim},
           {"init_points", o.init_points.mode}, {"far_shell", o.init_points.shell.points},
-          {"far_shell_radius", o.init_points.shell.radius_factor}};
+          {"far_shell_radius", o.init_points.shell.radius_factor}, {"preset", o.preset}};
 }
 
 // --resume continues the run as it was started: every setting comes from OUT/config.json except the
 // ones given on this command line among --iters and --checkpoint-every (and, for latent runs, --cache-dir,
 // which only says where encoded views are kept).
-TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given) {
+TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   const std::string path = (std::filesystem::path(given.out) / "config.json").string();
   auto stored = lrf::read_json_file(path);
   if (stored.contains("refine")) lrf::fail(path, "this folder holds a refined field: continue it with `lrf refine --resume`");
@@ -169,6 +183,8 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
     o.max_gaussians = j.at("max_gaussians").get<int64_t>();
     o.densify_grad = j.value("densify_grad", lrf::splat::DensifyOptions{}.grad_threshold);  // runs before the option
     o.sparse_adam = j.at("sparse_adam").get<bool>();
+    o.preset = j.value("preset", std::string(lrf::kDefaultPreset));  // runs from before presets had none
+    require_recorded_preset(given.preset, preset_given, o.preset, path);
     if (!iters_given) o.iters = j.at("iters").get<int64_t>();
     if (!checkpoint_given) o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
     if (o.space == "latent") {
@@ -373,10 +389,17 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                   "most 15000). Later is faster: 5000 of 7000 steps fits fern in 8.6 min on 2 cores and scored as "
                   "the default end did")
       ->capture_default_str();
-  lrf::cli::on_run(cmd, [o, iters, checkpoint] {
-    if (!o->resume) return run_train(*o);
-    if (lrf::nerf::is_nerf_run(o->out)) return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0);
-    return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0));
+  auto* preset = lrf::cli::add_preset_option(cmd, lrf::train_presets(), &o->preset);
+  lrf::cli::on_run(cmd, [cmd, o, iters, checkpoint, preset] {
+    lrf::find_preset(lrf::train_presets(), o->preset);  // an unknown name is refused before anything else
+    if (!o->resume) {
+      lrf::cli::apply_preset(cmd, lrf::train_presets(), o->preset, o->space);
+      return run_train(*o);
+    }
+    const bool preset_given = preset->count() > 0;
+    if (lrf::nerf::is_nerf_run(o->out))
+      return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
+    return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0, preset_given));
   });
 });
 

@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/compare/compare_plan.h"
 #include "lrf/core/error.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
@@ -265,8 +266,11 @@ nlohmann::json run_compare(const CompareOptions& o) {
     latent_fresh = true;
   };
   nlohmann::json all = nlohmann::json::object();
-  for (const auto& method : o.methods) {
+  for (size_t i = 0; i < o.methods.size(); ++i) {
+    const std::string& method = o.methods[i];
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
+    log_info("== " + method + " (" + std::to_string(i + 1) + " of " + std::to_string(o.methods.size()) +
+             "): " + compare_method_plan(method, o));
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
     const int feature_dim = o.feature_dim > 0 ? o.feature_dim : kHalfLatentChannels;
     if (method == "feature-gs" && !o.force) require_same_feature_dim(dir, feature_dim);
@@ -296,7 +300,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
       continue;
     }
     const bool resume = resumable(method, dir);
-    log_info("== " + method + (resume ? " (resuming)" : ""));
+    if (resume) log_info(method + ": resuming its run");
     if (method == "latent") {
       ensure_latent_field();
       LatentEvalOptions le;

@@ -50,6 +50,7 @@ struct LatentTrainOptions {
   uint64_t seed = 0;
   bool resume = false, force = false, sparse_adam = false;
   InitPointsOptions init_points;  // where the initial Gaussians come from (SfM, triangulated, random, a file)
+  std::string preset = "default";  // the --preset the options came from, recorded for --resume
 };
 
 struct LatentTrainResult {

@@ -27,7 +27,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
           {"feature_dim", o.feature_dim}, {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
           {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"short_run_rates", o.short_run_rates}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
-          {"checkpoint_every", o.checkpoint_every}};
+          {"checkpoint_every", o.checkpoint_every}, {"preset", o.preset}};
 }
 }  // namespace
 

@@ -36,6 +36,7 @@ struct LatentNerfOptions {
   uint64_t seed = 0;
   bool resume = false, force = false;
   InitPointsOptions init_points;  // the points that bound the scene (SfM, triangulated, a file)
+  std::string preset = "default";  // the --preset the options came from, recorded for --resume
 };
 
 struct LatentNerfResult {

@@ -9,6 +9,7 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
+#include "lrf/core/expected_time.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
@@ -38,7 +39,7 @@ nlohmann::json options_json(const LatentNerfOptions& o) {
           {"rays", o.rays},             {"samples", o.samples},
           {"log2_table", o.log2_table}, {"seed", o.seed},
           {"resume", o.resume},         {"force", o.force},
-          {"init_points", o.init_points.mode}};
+          {"init_points", o.init_points.mode}, {"preset", o.preset}};
 }
 
 // The rows of an earlier log up to `step`, and the elapsed time of the last of them (a resumed run
@@ -179,6 +180,8 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   };
 
   Progress progress("train-latent-nerf", o.iters, 2.0, trainer.steps_done());
+  const int64_t first_step = trainer.steps_done();
+  ExpectedTimeNotice expected(o.iters - first_step, "training only; scoring adds its own time");
   const StopOnSignals stop_on_signals;  // Ctrl-C / SIGTERM: a checkpoint at the next step, then Interrupted
   double loss_sum = 0, psnr_sum = 0, time_sum[4] = {0, 0, 0, 0}, last_loss = 0;
   int64_t count = 0;
@@ -203,6 +206,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
       count = 0;
     }
     progress.update(r.step, {{"loss", r.loss}, {"psnr", r.psnr}});
+    expected.observe(r.step - first_step, progress.elapsed_seconds());
     if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
     if (stop_signal() && !trainer.done()) {
       save();
@@ -249,6 +253,7 @@ LatentNerfOptions recorded_nerf_options(const std::string& out) {
     o.log2_table = j.at("log2_table").get<int>();
     o.seed = j.at("seed").get<uint64_t>();
     o.init_points.mode = j.at("init_points").get<std::string>();
+    o.preset = j.value("preset", std::string("default"));  // runs from before presets had none
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
   }

@@ -143,7 +143,9 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
   l.seed = o.seed;
   l.resume = fs::exists(splat::checkpoint_path(dir));
   l.force = !l.resume;
-  log_info("== latent field " + dir + (l.resume ? " (resuming)" : ""));
+  log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
+           " steps on the " + (encoder.empty() ? "stock" : "Stage I") + " encoder's latents of " + scene +
+           " (images downscaled " + std::to_string(downscale) + "x)");
   train_latent_field(l);
 }
 
@@ -161,7 +163,9 @@ void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int do
   b.mip = mip;
   b.seed = o.seed;
   b.resume = fs::exists(splat::checkpoint_path(dir));
-  log_info("== RGB field " + dir + (b.resume ? " (resuming)" : ""));
+  log_info("== RGB field " + dir + (b.resume ? " (resuming)" : "") + ": " + std::to_string(b.iters) + " steps on " +
+           scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
+           (mip ? ", with Mip-Splatting's filters" : ""));
   train_rgb_baseline(b);
 }
 
@@ -174,6 +178,8 @@ void refine_eval_field(const PipelineOptions& o, const std::string& field, const
   r.decoder = decoder;
   r.seed = o.seed;
   r.cache_dir = o.cache_dir;
+  log_info("== refinement " + dir + ": up to " + std::to_string(r.steps) + " steps of " + field +
+           " through its decoder (a finished one is reused)");
   ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir, false);
 }
 
@@ -207,7 +213,9 @@ void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
   }
   e.resume = fs::exists(finetune_checkpoint_path(e.out));
   e.force = !e.resume;
-  log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : ""));
+  log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : "") + ": " + std::to_string(e.steps) +
+           " steps of " + std::to_string(e.batch.pairs) + " view pairs in " + std::to_string(e.batch.crop) +
+           "-pixel crops, on " + std::to_string(e.scenes.size()) + " training scene(s)");
   finetune_encoder(e);
 }
 
@@ -244,7 +252,8 @@ void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fi
   }
   d.resume = fs::exists(decoder_checkpoint_path(out));
   d.force = !d.resume;
-  log_info("== Stage III " + out + (d.resume ? " (resuming)" : ""));
+  log_info("== Stage III " + out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
+           " steps on " + std::to_string(d.fields.size()) + " field(s)");
   finetune_decoder(d);
 }
 

@@ -9,6 +9,7 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
+#include "lrf/core/expected_time.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
@@ -121,6 +122,8 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   }
   const int64_t total = trainer.options().iterations;
   Progress progress(o.task, total, 2.0, trainer.steps_done());
+  const int64_t first_step = trainer.steps_done();
+  ExpectedTimeNotice expected(total - first_step, kGaussianRunNote);
   // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
   // The log goes first: killed before the checkpoint is written, a resumed run drops the log's rows past
   // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.
@@ -180,6 +183,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
         progress.exclude(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       }
       progress.update(r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}});
+      expected.observe(r.step - first_step, progress.elapsed_seconds());
       if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
       if (stop_signal() && !trainer.done()) {
         save();
