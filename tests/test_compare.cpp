@@ -157,13 +157,14 @@ TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
 }
 
 // The latent-refined row is reused only when its refinement was made with the refine options asked for
-// now: more steps continue it, other options are refused (a changed default must not pass for the old).
+// now: more steps continue one at constant rates, other options are refused (a changed default must not pass for the old).
 TEST(Compare, RefinedRowIsReusedOnlyWithTheSameRefineOptions) {
   lrf::test::TempDir dir("compare_refined");
   lrf::CompareOptions o = tiny_compare(dir / "cmp");
   o.methods = {"latent-refined"};
   o.refine.steps = 3;
   o.refine.score_every = 2;
+  o.refine.lr_final = 1;  // constant rates, so that more steps continue the run
   lrf::run_compare(o);
   const fs::path refined = dir / "cmp/latent-refined";
   ASSERT_TRUE(lrf::splat::run_finished(refined.string()));
@@ -204,6 +205,12 @@ TEST(Compare, RefinedRowIsReusedOnlyWithTheSameRefineOptions) {
   other.refine.steps = 2;
   msg = lrf::test::error_of([&] { lrf::run_compare(other); });
   EXPECT_NE(msg.find("steps (4 vs 2)"), std::string::npos) << msg;
+  // The default schedule (a decay at the end) is another run, not a continuation of the constant one.
+  other = o;
+  other.refine.lr_final = lrf::RefineOptions().lr_final;
+  other.refine.lr_decay_start = lrf::RefineOptions().lr_decay_start;
+  msg = lrf::test::error_of([&] { lrf::run_compare(other); });
+  EXPECT_NE(msg.find("\"lr_final\":0.1"), std::string::npos) << msg;
 }
 
 }  // namespace

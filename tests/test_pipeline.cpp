@@ -45,6 +45,7 @@ std::vector<std::string> strings(const nlohmann::json& a) {
 TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   lrf::test::TempDir dir("pipeline");
   lrf::PipelineOptions o = tiny_pipeline(dir / "run");
+  o.refine.lr_final = 1;  // constant rates, so that the refinement can be continued below
   EXPECT_EQ(fs::path(lrf::run_pipeline(o)["table"].get<std::string>()), fs::path(dir / "run/ablation.md"));
   for (const char* f : {"ablation.csv", "ablation.md", "report.html", "pipeline.json", "stage1/encoder.safetensors",
                         "stage3/decoder-stock.safetensors", "stage3/decoder-ft.safetensors"}) {
@@ -160,7 +161,7 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   msg = error_of([&] { lrf::run_pipeline(other); });
   EXPECT_NE(msg.find("initial_points_min_track_length (none vs 2)"), std::string::npos) << msg;
   lrf::write_json_file(stock_config.string(), current);
-  // A refinement with constant rates (the default) is continued to a larger step count, and its rows are
+  // A refinement with constant rates is continued to a larger step count, and its rows are
   // scored again; the other artefacts stay as they were.
   other = o;
   other.refine.steps = 5;

@@ -271,11 +271,13 @@ class RefineRun : public ::testing::Test {
     r.steps = steps;
     r.checkpoint_every = 20;
     // Each test turns on what it exercises: by default the field alone moves, through the stock decoder, at
-    // Stage II's rates (the bounds below were measured at them).
+    // Stage II's rates, constant (the bounds below were measured at them).
     r.lr_scale = 1;
     r.decoder_lr = 0;
     r.densify_until = 0;
     r.jitter = 0;
+    r.lr_final = 1;
+    r.lr_decay_start = 0;
     return r;
   }
   // Runs `o` to `first` steps (checkpointing there), then resumes it to o.steps.
@@ -481,8 +483,9 @@ TEST_F(RefineRun, DecoderAdaptedUpToAScaleKeepsItsFinerLayers) {
   EXPECT_NE(lrf::test::error_of([&] { lrf::refine_latent_field(o); }).find("power of two"), std::string::npos);
 }
 
-// --lr-final decays the decoder's rate with the field's. Adam moves each weight by about its rate per step, so a decay to 1 % over the
-// run (a mean factor near 0.2) moves the decoder well under 0.7 of what the constant rate does.
+// --lr-final decays the decoder's rate with the field's. Adam moves each weight by about its rate per
+// step, so a decay to 1 % over the whole run (a mean factor near 0.2) moves the decoder well under 0.7 of
+// what the constant rate does.
 TEST_F(RefineRun, DecoderRateDecaysWithTheFields) {
   auto constant = options("decay_constant", 8);
   constant.decoder_lr = 1e-4;

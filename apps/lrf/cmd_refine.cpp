@@ -40,7 +40,9 @@ lrf::cli::CommandRegistration reg(23, [](CLI::App& root) {
                   "geometry stays, only the latent features and the decoder adapt)")
       ->capture_default_str();
   cmd->add_option("--lr-final", o->lr_final,
-                  "Every learning rate, the decoder's with the field's, decays log-linearly to this fraction of itself by the last step (1 = constant)")
+                  "Every learning rate, the decoder's with the field's, decays log-linearly to this fraction of itself by the "
+                  "last step (1 = constant rates). The default decay in the last fifth keeps the result from following "
+                  "the last views seen")
       ->capture_default_str();
   cmd->add_option("--lr-decay-start", o->lr_decay_start,
                   "With --lr-final below 1: the rates stay constant for this fraction of the run and decay in the "

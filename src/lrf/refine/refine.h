@@ -39,8 +39,14 @@ struct RefineOptions {
   // above: 0 keeps Stage II's geometry and adapts only the latent features (and the decoder), so that no
   // Gaussian can move to serve one training view alone.
   double geometry_lr_scale = 1;
-  double lr_final = 1;          // every rate decays log-linearly to this fraction of itself by the last step
-  double lr_decay_start = 0;    // ... starting at this fraction of the run (0 = from the first step)
+  // Every rate (the decoder's with the field's) decays log-linearly to lr_final of itself by the last step,
+  // starting at lr_decay_start of the run (0 = from the first step; lr_final 1 = constant rates). Default:
+  // constant, then a decay in the last fifth. With constant rates the last step's result follows the last
+  // views seen (flower's test views: 25.23 dB at step 1600, 24.88 at 1700); the tail decay scored above
+  // constant rates at the same step on the validation splits of flower (+0.20 dB), fern (+0.15) and room
+  // (+0.36 against the nearest constant-rate score), where a decay over the whole run cost 0.4 dB (room).
+  double lr_final = 0.1;
+  double lr_decay_start = 0.8;
   double lambda_ssim = 0.2;
   // > 0: the decoder is adapted to this scene with the field (Adam at this rate, on the same training
   // views); it is saved as OUT/decoder.safetensors and becomes the run's decoder. 0: frozen decoder.
