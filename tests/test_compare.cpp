@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "lrf/compare/compare.h"
+#include "lrf/compare/compare_plan.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/cache_key.h"
 #include "lrf/core/run_info.h"
@@ -211,6 +212,16 @@ TEST(Compare, RefinedRowIsReusedOnlyWithTheSameRefineOptions) {
   other.refine.lr_decay_start = lrf::RefineOptions().lr_decay_start;
   msg = lrf::test::error_of([&] { lrf::run_compare(other); });
   EXPECT_NE(msg.find("\"lr_final\":0.1"), std::string::npos) << msg;
+}
+
+// The plan printed before each method names the refinement's length as the run will resolve it.
+TEST(Compare, PlanNamesTheRefinementLength) {
+  lrf::CompareOptions o;
+  EXPECT_NE(lrf::compare_method_plan("latent-refined", o).find(std::to_string(lrf::kRefineStepsPerView) +
+                                                               " steps per training view"),
+            std::string::npos);
+  o.refine.steps = 300;
+  EXPECT_NE(lrf::compare_method_plan("latent-refined", o).find("for 300 steps"), std::string::npos);
 }
 
 }  // namespace

@@ -23,7 +23,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
       "efficiency.md, and report.html");
   auto o = std::make_shared<lrf::CompareOptions>();
   cmd->add_option("scene", o->scene, "Scene folder")->required();
-  cmd->add_option("-o,--out", o->out, "Output folder (one subfolder per method; finished methods are reused; latent-refined only if made with the same --refine-* options, and continued if more --refine-steps are asked for)")->required();
+  cmd->add_option("-o,--out", o->out, "Output folder (one subfolder per method; finished methods are reused; latent-refined only if made with the same --refine-* options, and continued if more --refine-steps are asked for at constant rates, --refine-lr-final 1)")->required();
   cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
   cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")->capture_default_str();
   cmd->add_option("--test-every", o->test_every, "Hold out every N-th view for testing")->capture_default_str();

@@ -19,7 +19,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip, rgb and rgb-mip: DIR/ablation.csv, "
       "DIR/ablation.md, DIR/report.html, DIR/stages.csv and stages.md (wall time per stage, from the stages' own "
       "records, over every session that worked on them), DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
-      "command is run again; a larger --refine-steps continues the finished refinements (with constant rates) and "
+      "command is run again; a larger --refine-steps continues the finished refinements made at constant rates (--refine-lr-final 1) and "
       "scores their rows again");
   auto o = std::make_shared<lrf::PipelineOptions>();
   cmd->add_option("--train-scenes", o->train_scenes, "Scenes for Stage I and Stage III")->required();

@@ -17,6 +17,15 @@ inline void add_refine_options(CLI::App* cmd, RefineOptions* o, const std::strin
   cmd->add_option("--refine-crop", o->crop, p + "supervised square per step in pixels (0 = whole view)")
       ->capture_default_str();
   cmd->add_option("--refine-lr-scale", o->lr_scale, p + "multiplies Stage II's learning rates")->capture_default_str();
+  cmd->add_option("--refine-lr-final", o->lr_final,
+                  p + "every rate, the decoder's with the field's, decays log-linearly to this fraction of itself by "
+                      "the last step (1 = constant rates, with which a finished refinement is continued when more "
+                      "--refine-steps are asked for)")
+      ->capture_default_str();
+  cmd->add_option("--refine-lr-decay-start", o->lr_decay_start,
+                  p + "the rates stay constant for this fraction of the run and decay in the rest (0 = from the "
+                      "first step)")
+      ->capture_default_str();
   cmd->add_option("--refine-geometry-lr-scale", o->geometry_lr_scale,
                   p + "multiplies the rates of means, scales, rotations and opacities (0 = Stage II's geometry "
                       "stays)")

@@ -81,6 +81,15 @@ double source_seconds(const nlohmann::json& source_config) {
   return result.value("seconds", 0.0) + result.value("encode_seconds", 0.0);
 }
 
+// `o` with its length resolved from the source run's recorded configuration `c` (read from `path`).
+RefineOptions with_refine_steps_of(RefineOptions o, const nlohmann::json& c, const std::string& path) {
+  if (o.steps != 0) return o;
+  const int64_t views = c.value("train_views", int64_t(0));
+  if (views < 1) fail(path, "records no training views (\"train_views\"), so the default --steps is unknown: give --steps");
+  o.steps = refine_steps(o, views);
+  return o;
+}
+
 }  // namespace
 
 int64_t refine_steps(const RefineOptions& o, int64_t train_views) {
@@ -92,11 +101,7 @@ RefineOptions with_refine_steps(RefineOptions o) {
   if (o.steps != 0) return o;
   const std::string config = (fs::path(o.run) / "config.json").string();
   if (!fs::exists(config)) fail(config, "not found: refine needs a finished latent field");
-  const nlohmann::json c = read_json_file(config);
-  const int64_t views = c.value("train_views", int64_t(0));
-  if (views < 1) fail(config, "records no training views (\"train_views\"), so the default --steps is unknown: give --steps");
-  o.steps = refine_steps(o, views);
-  return o;
+  return with_refine_steps_of(o, read_json_file(config), config);
 }
 
 std::string refine_description(const RefineOptions& o) {
@@ -145,8 +150,8 @@ nlohmann::json refine_resume_key(const RefineOptions& o) {
 RefineResult refine_latent_field(const RefineOptions& options) {
   using namespace lrf::splat;
   check_options(options);
-  const RefineOptions o = with_refine_steps(options);
-  LatentRun src = open_latent_run(o.run);
+  LatentRun src = open_latent_run(options.run);
+  const RefineOptions o = with_refine_steps_of(options, src.config, (fs::path(options.run) / "config.json").string());
   if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
   if (src.lift.defined())
     fail(o.run, "a feature field (feature-gs) cannot be refined: refinement moves latent features, and this field's "
@@ -253,8 +258,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
     to.after_backward = [&](int64_t step) {
       // The decoder's rate follows the field's (--lr-final), so that a decaying run ends with a decoder
       // that no longer follows the last views it saw.
-      const double t = lr.decay_progress(step, o.steps);
-      decoder_adam->set_lr(o.decoder_lr * std::exp(std::log(o.lr_final) * t));
+      decoder_adam->set_lr(o.decoder_lr * lr.others_factor(step, o.steps));
       decoder_adam->step();
       decoder_adam->zero_grad();
     };

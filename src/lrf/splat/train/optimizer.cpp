@@ -95,11 +95,12 @@ double GaussianAdam::position_lr(int64_t step) const {
   return extent_ * std::exp(std::log(lr_.position_init) * (1 - t) + std::log(lr_.position_final) * t);
 }
 
-double GaussianAdam::others_factor(int64_t step) const {
-  if (lr_.others_final_factor == 1.0) return 1.0;
-  const double t = lr_.decay_progress(step, total_);
-  return std::exp(std::log(lr_.others_final_factor) * t);
+double LearningRates::others_factor(int64_t step, int64_t total) const {
+  if (others_final_factor == 1.0) return 1.0;
+  return std::exp(std::log(others_final_factor) * decay_progress(step, total));
 }
+
+double GaussianAdam::others_factor(int64_t step) const { return lr_.others_factor(step, total_); }
 
 GaussianAdam::GroupRows GaussianAdam::group_rows(const Gaussians& g, int k, int64_t t, int active_sh_degree) const {
   const double f = others_factor(t - 1);

@@ -41,6 +41,8 @@ struct LearningRates {
   double decay_start = 0.0;
   // Where `step` (0-based) of `total` steps is in the decays: 0 before decay_start, 1 at the end.
   double decay_progress(int64_t step, int64_t total) const;
+  // others_final_factor's decay at `step` of `total`: 1 until the decay starts, others_final_factor at the end.
+  double others_factor(int64_t step, int64_t total) const;
 
   // These rates with the means' and the SH coefficients' scaled by short_run_factor(iterations): a run
   // shorter than Inria's short run compresses its schedule by iterations / 7000
