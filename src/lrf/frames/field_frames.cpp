@@ -70,7 +70,7 @@ class LatentFrames : public FieldFrames {
     apply_thread_count_to_this_thread();
     torch::NoGradGuard no_grad;
     const auto t0 = Clock::now();
-    auto zn = splat::render_field(run_.field, latent_camera(camera), run_.render).image;
+    auto zn = render_latent_at(run_, latent_camera(camera));  // a feature field's features lifted to latents
     const double render_ms = ms_since(t0);
     const auto t1 = Clock::now();
     auto image = decode_normalised(*ae_, run_.range, zn);
