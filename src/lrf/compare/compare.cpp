@@ -29,6 +29,7 @@
 #include "lrf/refine/refine.h"
 #include "lrf/refine/refine_folder.h"
 #include "lrf/rgb/rgb_baseline.h"
+#include "lrf/rgb/rgb_eval.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/run/train_run.h"
 
@@ -360,7 +361,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
         b.init_points = o.init_points;
         train_rgb_baseline(b);
       }
-      all[method] = evaluate_rgb_run(dir, o.lpips_weights);
+      RgbEvalOptions re;
+      re.lpips_weights = o.lpips_weights;
+      all[method] = evaluate_rgb_run(dir, re);
     }
   }
 

@@ -17,6 +17,7 @@
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
 #include "lrf/rgb/rgb_baseline.h"
+#include "lrf/rgb/rgb_eval.h"
 #include "lrf/scene/scene.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
@@ -167,6 +168,13 @@ void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int do
            scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
            (mip ? ", with Mip-Splatting's filters" : ""));
   train_rgb_baseline(b);
+}
+
+// The RGB rows are scored as lrf eval scores an RGB run.
+RgbEvalOptions rgb_eval_options(const PipelineOptions& o) {
+  RgbEvalOptions e;
+  e.lpips_weights = o.lpips_weights;
+  return e;
 }
 
 // A field refined through `decoder` (refine_folder.h: reused, continued to more steps, resumed or made).
@@ -419,7 +427,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
       run_unit(std::string(b.row) + " of " + paths.eval_label(s), [&] {
         const std::string rgb = paths.eval_field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
-        if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, o.lpips_weights);
+        if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, rgb_eval_options(o));
         return std::string();
       });
     }
@@ -595,7 +603,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
         const std::string metrics = (fs::path(rgb) / "metrics.json").string();
         auto scores = reusable_scores(metrics);
-        m[b.row] = scores ? *scores : evaluate_rgb_run(rgb, o.lpips_weights);
+        m[b.row] = scores ? *scores : evaluate_rgb_run(rgb, rgb_eval_options(o));
         image_dirs[b.row] = (fs::path(rgb) / "eval").string();
       }
     }

@@ -9,11 +9,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
-#include "lrf/core/state_dict.h"
-#include "lrf/eval/lpips.h"
-#include "lrf/eval/scores.h"
 #include "lrf/rgb/rgb_field.h"
-#include "lrf/splat/render_field.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"
 
@@ -75,47 +71,6 @@ void train_rgb_baseline(const RgbBaselineOptions& o) {
   config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},
                       {"peak_memory_mb", peak_memory_mb()}};
   write_json_file(config_path, config);
-}
-
-nlohmann::json evaluate_rgb_run(const std::string& out, const std::string& lpips_weights) {
-  using namespace lrf::splat;
-  FieldRun run = open_field_run(out);
-  if (run.scene.test_indices.empty()) fail(out, "the scene has no test views");
-  std::optional<Lpips> lpips;
-  if (!lpips_weights.empty()) lpips = Lpips::from_state_dict(tensor_map(load_state_dict(lpips_weights)), lpips_weights);
-  const std::string image_dir = (fs::path(out) / "eval").string();
-  fs::create_directories(image_dir);
-  std::vector<ImageScores> scores;
-  nlohmann::json views = nlohmann::json::array();
-  double render_seconds = 0;
-  for (int i : run.scene.test_indices) {
-    const View& v = run.scene.views[static_cast<size_t>(i)];
-    Stopwatch clock;
-    auto image = render_field(run.field, v.camera, run.render).image.clamp(0, 1);
-    render_seconds += clock.seconds();
-    cv::Mat rendered = splat::tensor_to_image(image);
-    ImageScores s = score_image(run.scene.load_image(i), rendered, lpips ? &*lpips : nullptr, v.name);
-    scores.push_back(s);
-    auto j = scores_json(s);
-    j["name"] = v.name;
-    views.push_back(j);
-    write_image_rgb((fs::path(image_dir) / (fs::path(v.name).stem().string() + ".png")).string(), rendered);
-  }
-  nlohmann::json metrics = scores_json(mean_scores(scores));
-  if (!lpips) metrics["lpips_reason"] = "no --lpips-weights given";
-  metrics["views"] = views;
-  metrics["resolution"] = {run.scene.views[0].camera.width, run.scene.views[0].camera.height};
-  metrics["gaussians"] = run.field.size();
-  metrics["render_fps"] = double(scores.size()) / std::max(render_seconds, 1e-9);
-  std::error_code ec;
-  metrics["storage_mb"] = double(fs::file_size(fs::path(out) / "point_cloud.ply", ec)) / (1 << 20);
-  if (run.config.contains("result")) {
-    metrics["train_seconds"] = run.config["result"].value("seconds", 0.0);
-    metrics["peak_memory_mb"] = run.config["result"].value("peak_memory_mb", 0.0);
-  }
-  metrics["run"] = run_record({{"out", out}, {"lpips_weights", lpips_weights}});
-  write_json_file((fs::path(out) / "metrics.json").string(), metrics);
-  return metrics;
 }
 
 }  // namespace lrf

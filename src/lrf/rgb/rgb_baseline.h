@@ -28,8 +28,4 @@ struct RgbBaselineOptions {
 
 void train_rgb_baseline(const RgbBaselineOptions& options);
 
-// Scores an RGB run's test views at the resolution of its config's scene; writes OUT/eval/*.png and
-// OUT/metrics.json (psnr, ssim, lpips, views, render_fps, gaussians, storage_mb, train_seconds).
-nlohmann::json evaluate_rgb_run(const std::string& out, const std::string& lpips_weights);
-
 }  // namespace lrf
