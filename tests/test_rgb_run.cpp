@@ -1,5 +1,6 @@
 // An RGB row of lrf compare is an RGB run like any other: lrf eval scores it as compare did (the same
-// metrics.json keys, the rendered views, LPIPS when weights are given).
+// metrics.json keys, the rendered views, LPIPS when weights are given), and lrf train --resume continues it,
+// also a row that compare recorded under its older option names.
 #include <filesystem>
 #include <set>
 #include <string>
@@ -11,6 +12,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/eval/lpips.h"
+#include "lrf/splat/run/train_run.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -84,4 +86,48 @@ TEST(RgbRun, EvalOfACompareRowWritesWhatCompareWrote) {
   // --decoder is still refused: an RGB field has none.
   r = lrf::test::run_lrf("eval '" + row + "' --decoder x.safetensors");
   EXPECT_EQ(r.exit_code, 2) << r.output;
+}
+
+TEST(RgbRun, TrainResumesACompareRowInterruptedOrFinished) {
+  lrf::test::TempDir dir("rgb_run_resume");
+  lrf::run_compare(tiny_rgb_compare(dir / "cmp"));
+  const std::string row = dir / "cmp/rgb_8", config_path = row + "/config.json";
+  const auto recorded = lrf::read_json_file(config_path);
+  EXPECT_EQ(recorded["options"]["factor"], 8);
+  EXPECT_EQ(recorded["options"]["crop8"], true);
+
+  // Interrupted after its last checkpoint: --resume finishes it, the folder in place of the scene and -o.
+  nlohmann::json unfinished = recorded;
+  unfinished.erase("result");
+  lrf::write_json_file(config_path, unfinished);
+  auto r = lrf::test::run_lrf("--threads 2 -q train '" + row + "' --resume");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(lrf::splat::run_finished(row));
+  EXPECT_EQ(lrf::read_json_file(config_path)["result"]["steps"], 40);
+
+  // Finished: continued to more steps, still on the views reduced 8x that compare trained it on.
+  r = lrf::test::run_lrf("--threads 2 -q train '" + row + "' --resume --iters 60 -o '" + row + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto config = lrf::read_json_file(config_path);
+  EXPECT_EQ(config["result"]["steps"], 60);
+  EXPECT_EQ(config["options"]["factor"], 8);
+  EXPECT_EQ(config["options"]["iters"], 60);
+  EXPECT_EQ(config["train_resolution"], recorded["train_resolution"]);
+  EXPECT_EQ(config["resolution"], recorded["resolution"]);
+  EXPECT_NE(lrf::read_file(row + "/train_log.csv").find("\n60,"), std::string::npos);
+
+  // A row recorded before compare trained its RGB rows with lrf train's job: only these options.
+  config["options"] = {{"scene", recorded["options"]["scene"]}, {"iters", 60}, {"mip", false}, {"seed", 0}, {"factor", 8}};
+  lrf::write_json_file(config_path, config);
+  r = lrf::test::run_lrf("--threads 2 -q train '" + row + "' --resume --iters 70");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  config = lrf::read_json_file(config_path);
+  EXPECT_EQ(config["result"]["steps"], 70);
+  EXPECT_EQ(config["train_resolution"], recorded["train_resolution"]);
+  EXPECT_EQ(config["options"]["images"], recorded["options"]["images"]);
+
+  // Without --resume the folder cannot stand in for -o.
+  r = lrf::test::run_lrf("train '" + lrf::test::synthetic_scene() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--out"), std::string::npos) << r.output;
 }
