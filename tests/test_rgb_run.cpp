@@ -78,7 +78,8 @@ TEST(RgbRun, EvalOfACompareRowWritesWhatCompareWrote) {
   EXPECT_TRUE(by_eval["lpips"].is_null());
 
   // LPIPS weights are taken for an RGB run too.
-  r = lrf::test::run_lrf("--threads 2 -q eval '" + row + "' --lpips-weights '" + random_lpips_weights(dir / "lpips.safetensors") + "'");
+  const std::string weights = random_lpips_weights(dir / "lpips.safetensors");
+  r = lrf::test::run_lrf("--threads 2 -q eval '" + row + "' --lpips-weights '" + weights + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json with_lpips = lrf::read_json_file(row + "/metrics.json");
   EXPECT_TRUE(with_lpips["lpips"].is_number()) << with_lpips.dump();
@@ -117,7 +118,8 @@ TEST(RgbRun, TrainResumesACompareRowInterruptedOrFinished) {
   EXPECT_NE(lrf::read_file(row + "/train_log.csv").find("\n60,"), std::string::npos);
 
   // A row recorded before compare trained its RGB rows with lrf train's job: only these options.
-  config["options"] = {{"scene", recorded["options"]["scene"]}, {"iters", 60}, {"mip", false}, {"seed", 0}, {"factor", 8}};
+  config["options"] = {
+      {"scene", recorded["options"]["scene"]}, {"iters", 60}, {"mip", false}, {"seed", 0}, {"factor", 8}};
   lrf::write_json_file(config_path, config);
   r = lrf::test::run_lrf("--threads 2 -q train '" + row + "' --resume --iters 70");
   ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -59,8 +59,9 @@ int run_eval(const EvalOptions& o) {
 }
 
 lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
-  auto* cmd = root.add_subcommand("eval", "Score a trained field on the test views (writes OUT/metrics.json and the "
-                                           "rendered views in OUT/eval); latent fields and latent NeRFs are decoded first");
+  auto* cmd = root.add_subcommand("eval", "Score a trained field on the test views (writes OUT/metrics.json and "
+                                           "the rendered views in OUT/eval); latent fields and latent NeRFs are "
+                                           "decoded first");
   auto o = std::make_shared<EvalOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train, lrf refine or one method's folder of lrf compare")->required();
   cmd->add_option("--scale", o->scale, "Evaluate at this multiple of the training resolution")->capture_default_str();

@@ -51,8 +51,8 @@ lrf::cli::CommandRegistration reg(24, [](CLI::App& root) {
   auto* cmd = root.add_subcommand("serve", "A local web viewer for a trained field: orbit, pan, zoom and fly in the "
                                            "browser while lrf renders (and decodes) the frames");
   auto o = std::make_shared<ServeCliOptions>();
-  cmd->add_option("run", o->run, "Output folder of lrf train or lrf refine, or a method's folder of lrf compare (an RGB "
-                  "or latent field, a feature field, a latent NeRF)")->required();
+  cmd->add_option("run", o->run, "Output folder of lrf train or lrf refine, or a method's folder of lrf compare "
+                  "(an RGB or latent field, a feature field, a latent NeRF)")->required();
   cmd->add_option("--port", o->server.port, "TCP port (0: any free port; the address is printed)")->capture_default_str();
   cmd->add_option("--host", o->server.host, "Address to listen on; the default keeps the viewer to this machine. "
                   "Another address exposes the field to the network")->capture_default_str();

@@ -50,7 +50,8 @@ nlohmann::json evaluate_rgb_run(const std::string& out, const RgbEvalOptions& o)
     render_seconds += clock.seconds();
     cv::Mat rendered = splat::tensor_to_image(image);
     cv::Mat truth = run.scene.load_image(i);
-    if (truth.cols != camera.width || truth.rows != camera.height) truth = resize_area(truth, camera.width, camera.height);
+    if (truth.cols != camera.width || truth.rows != camera.height)
+      truth = resize_area(truth, camera.width, camera.height);
     const ImageScores s = score_image(truth, rendered, lpips ? &*lpips : nullptr, v.name);
     scores.push_back(s);
     auto j = scores_json(s);
