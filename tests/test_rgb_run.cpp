@@ -9,6 +9,7 @@
 #include <torch/torch.h>
 
 #include "lrf/compare/compare.h"
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/eval/lpips.h"
