@@ -15,6 +15,7 @@
 #include "lrf/core/safetensors.h"
 #include "lrf/feature/feature_lift.h"
 #include "lrf/feature/feature_training.h"
+#include "lrf/frames/field_frames.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/refine/refine.h"
 #include "lrf/splat/ply_io.h"
@@ -281,6 +282,16 @@ TEST_F(FeatureField, RenderCommandWritesLatentsOfTheAutoencodersChannels) {
   const auto latent = lrf::read_safetensors(*dir_ / "renders/view_000.safetensors");
   EXPECT_EQ(latent["latent"].sizes(), (std::vector<int64_t>{32, 12, 16}));
   EXPECT_TRUE(fs::exists(*dir_ / "renders/view_000.png"));
+}
+
+// Videos and the viewer take a feature field too: its frames are its features lifted to the latent, decoded.
+TEST_F(FeatureField, FramesLiftTheFeaturesBeforeDecoding) {
+  auto frames = lrf::FieldFrames::open(*dir_ / "field");
+  EXPECT_EQ(frames->space(), "latent");
+  const lrf::Camera& camera = frames->scene().views.at(0).camera;
+  const cv::Mat frame = frames->render(camera);
+  EXPECT_EQ(frame.size(), cv::Size(camera.width, camera.height));
+  EXPECT_EQ(frame.type(), CV_8UC3);
 }
 
 // What is wrong is named, before anything is written: a bad feature count, --init rgb with a feature field,

@@ -1,10 +1,13 @@
 // The latent NeRF as a whole: exact resume of its trainer, its field file and the refusal of damaged
 // ones, a short fit on the synthetic scene that lowers the loss and renders the test views, and the CLI
-// (train, resume, eval, render, compare's latent-nerf row, bad input).
+// (train, resume, eval, render, compare's latent-nerf row, bad input); its frames along a camera path and
+// in the viewer.
 #include <filesystem>
 #include <fstream>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
 
 #include <ATen/ATen.h>
 #include <ATen/CPUGeneratorImpl.h>
@@ -13,8 +16,10 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
+#include "lrf/frames/field_frames.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
+#include "lrf/viewer/scene_json.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -270,6 +275,44 @@ TEST_F(LatentNerfRun, CliTrainsRendersEvaluatesAndRefusesBadInput) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("field.safetensors"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(out + "/metrics.json"));
+}
+
+// A latent NeRF has frames like a latent field: the frame source of videos and of the viewer opens it and
+// decodes what it renders at any camera of a multiple of 8, and lrf render --path makes a video of it.
+TEST_F(LatentNerfRun, FramesMakeAPathVideoAndTheViewersScene) {
+  const std::string out = *dir_ / "fit";
+  auto frames = lrf::FieldFrames::open(out);
+  EXPECT_EQ(frames->space(), "latent-nerf");
+  EXPECT_TRUE(frames->latent());
+  EXPECT_EQ(frames->size_multiple(), 8);
+  EXPECT_NE(frames->describe().find("latent NeRF"), std::string::npos) << frames->describe();
+  lrf::FrameTiming timing;
+  const cv::Mat frame = frames->render(frames->scene().views[0].camera, &timing);
+  EXPECT_EQ(frame.size(), cv::Size(64, 48));
+  EXPECT_EQ(frame.type(), CV_8UC3);
+  EXPECT_GT(timing.render_ms, 0.0);
+  EXPECT_GT(timing.decode_ms, 0.0);
+  const nlohmann::json scene = lrf::viewer::scene_json(*frames, lrf::viewer::view_limits(*frames, 256));
+  EXPECT_EQ(scene["space"], "latent-nerf");
+  EXPECT_EQ(scene["size_multiple"], 8);
+  EXPECT_EQ(scene["views"].size(), frames->scene().views.size());
+
+  const std::string video = *dir_ / "nerf_path.mp4", png = *dir_ / "nerf_path";
+  auto r = lrf::test::run_lrf("--threads 2 render '" + out + "' --path interp --frames 3 --video '" + video +
+                              "' --frames-dir '" + png + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("latent NeRF"), std::string::npos) << r.output;
+  int pngs = 0;
+  for (const auto& e : fs::directory_iterator(png)) {
+    EXPECT_EQ(cv::imread(e.path().string()).size(), cv::Size(64, 48)) << e.path();
+    ++pngs;
+  }
+  EXPECT_EQ(pngs, 3);
+  cv::VideoCapture capture(video, cv::CAP_FFMPEG);
+  ASSERT_TRUE(capture.isOpened()) << video;
+  int decoded = 0;
+  for (cv::Mat bgr; capture.read(bgr);) ++decoded;
+  EXPECT_EQ(decoded, 3);
 }
 
 TEST_F(LatentNerfRun, CompareHasALatentNerfRow) {

@@ -168,7 +168,8 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
                                    "fields and latent NeRFs also write the rendered latents), or a camera-path video with "
                                    "--path");
   auto o = std::make_shared<RenderOptions>();
-  cmd->add_option("out", o->out, "Output folder of lrf train")->required();
+  cmd->add_option("out", o->out, "Output folder of lrf train or lrf refine, or a method's folder of lrf compare (any "
+                                   "kind of field)")->required();
   auto* split = cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
   cmd->add_option("-o,--dir", o->dir, "Folder for the images (default OUT/renders/SPLIT)");
   const std::string most = std::to_string(lrf::splat::kMaxRenderSide);

@@ -1,5 +1,5 @@
-// lrf serve: a local web viewer for a trained field (RGB or latent): the browser moves the camera, the
-// server renders (and decodes) the frames.
+// lrf serve: a local web viewer for a trained field (RGB, latent, feature or latent NeRF): the browser moves
+// the camera, the server renders (and decodes) the frames.
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -51,11 +51,12 @@ lrf::cli::CommandRegistration reg(24, [](CLI::App& root) {
   auto* cmd = root.add_subcommand("serve", "A local web viewer for a trained field: orbit, pan, zoom and fly in the "
                                            "browser while lrf renders (and decodes) the frames");
   auto o = std::make_shared<ServeCliOptions>();
-  cmd->add_option("run", o->run, "Output folder of lrf train or lrf refine (RGB or latent field)")->required();
+  cmd->add_option("run", o->run, "Output folder of lrf train or lrf refine, or a method's folder of lrf compare "
+                  "(an RGB or latent field, a feature field, a latent NeRF)")->required();
   cmd->add_option("--port", o->server.port, "TCP port (0: any free port; the address is printed)")->capture_default_str();
   cmd->add_option("--host", o->server.host, "Address to listen on; the default keeps the viewer to this machine. "
                   "Another address exposes the field to the network")->capture_default_str();
-  cmd->add_option("--decoder", o->decoder, "Latent fields: decode with these decoder weights (e.g. Stage III's; default: the "
+  cmd->add_option("--decoder", o->decoder, "Latent fields and latent NeRFs: decode with these decoder weights (e.g. Stage III's; default: the "
                   "decoder a refined field was fitted through, else the autoencoder's)");
   cmd->add_option("--max-side", o->server.max_side, "Largest frame width or height a page may ask for")->capture_default_str();
   cmd->add_option("--jpeg-quality", o->server.jpeg_quality, "JPEG quality of the frames (1..100)")

@@ -9,14 +9,13 @@
 #include "scene_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
-#include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/scene/scene.h"
-#include "lrf/splat/run/run_folder.h"
-#include "lrf/rgb/rgb_field.h"
-#include "lrf/splat/run/train_run.h"
+#include "lrf/rgb/rgb_train_run.h"
+#include "lrf/splat/run/run_config.h"
+#include "lrf/splat/train/densify.h"
 
 namespace {
 
@@ -145,6 +144,53 @@ int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoi
   return 0;
 }
 
+lrf::RgbTrainOptions rgb_options(const TrainOptions& o, const lrf::InitPointsOptions& points) {
+  lrf::RgbTrainOptions r;
+  r.scene = o.scene;
+  r.out = o.out;
+  r.scene_options = o.scene_options;
+  r.iters = o.iters;
+  r.sh_degree = o.sh_degree;
+  r.mip = o.mip;
+  r.seed = o.seed;
+  r.max_gaussians = o.max_gaussians;
+  r.densify_grad = o.densify_grad;
+  r.checkpoint_every = o.checkpoint_every;
+  r.sparse_adam = o.sparse_adam;
+  r.white_background = o.white_background;
+  r.coarse_factor = o.coarse_factor;
+  r.coarse_until = o.coarse_until;
+  r.init_points = points;
+  r.preset = o.preset;
+  r.resume = o.resume;
+  r.force = o.force;
+  return r;
+}
+
+// Whether OUT holds an RGB field that `lrf train --resume` continues: one of lrf train's, or an RGB row of
+// lrf compare or lrf pipeline (trained by the same job, so recorded alike).
+bool holds_rgb_run(const std::string& out) {
+  const std::string path = (std::filesystem::path(out) / "config.json").string();
+  if (!std::filesystem::exists(path)) return false;
+  const nlohmann::json config = lrf::read_json_file(path);
+  return !config.contains("refine") && lrf::splat::config_space(config, path) == "rgb";
+}
+
+// --resume of an RGB field: its recorded options, except --iters and --checkpoint-every when given, and
+// --cache-dir (where triangulated points are cached).
+int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
+  lrf::RgbTrainOptions r = lrf::recorded_rgb_options(given.out);
+  const std::string path = (std::filesystem::path(given.out) / "config.json").string();
+  require_recorded_preset(given.preset, preset_given, r.preset, path);
+  if (iters_given) r.iters = given.iters;
+  if (checkpoint_given) r.checkpoint_every = given.checkpoint_every;
+  r.init_points.cache_dir = given.init_points.cache_dir.empty() ? given.cache_dir : given.init_points.cache_dir;
+  if (given.scene != r.scene && given.scene != given.out)
+    lrf::log_warn("--resume: training on " + r.scene + " as recorded in " + path + " (not " + given.scene + ")");
+  lrf::train_rgb_field(r);
+  return 0;
+}
+
 nlohmann::json to_json(const TrainOptions& o) {
   return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
           {"images", o.scene_options.images_dir}, {"downscale", o.scene_options.downscale},
@@ -161,9 +207,9 @@ nlohmann::json to_json(const TrainOptions& o) {
           {"far_shell_radius", o.init_points.shell.radius_factor}, {"preset", o.preset}};
 }
 
-// --resume continues the run as it was started: every setting comes from OUT/config.json except the
-// ones given on this command line among --iters and --checkpoint-every (and, for latent runs, --cache-dir,
-// which only says where encoded views are kept).
+// --resume of a latent (or feature) field continues the run as it was started: every setting comes from
+// OUT/config.json except the ones given on this command line among --iters, --checkpoint-every and
+// --cache-dir (which only says where encoded views are kept).
 TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   const std::string path = (std::filesystem::path(given.out) / "config.json").string();
   auto stored = lrf::read_json_file(path);
@@ -194,14 +240,6 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
       o.rgb_guide = j.value("rgb_guide", 0.0);
       o.feature_dim = j.value("feature_dim", 0);
       o.inria_rates = !j.value("short_run_rates", false);  // runs from before the short-run rates kept Inria's
-    } else {
-      o.scene_options.test_list = j.at("test_list").get<std::string>();
-      o.scene_options.format = j.at("format").get<std::string>();
-      o.scene_options.crop_to_multiple_of_8 = j.at("crop8").get<bool>();
-      o.mip = j.at("mip").get<bool>();
-      o.white_background = j.at("white_background").get<bool>();
-      o.coarse_factor = j.value("coarse_factor", 1);  // runs from before the option had none
-      o.coarse_until = j.value("coarse_until", int64_t{-1});
     }
   } catch (const nlohmann::json::exception& e) {
     lrf::fail(path, std::string("cannot resume: missing or bad options: ") + e.what());
@@ -237,70 +275,7 @@ int run_train(const TrainOptions& o) {
   if (o.space == "latent") return run_train_latent(o, points);
   if (o.space != "rgb") fail_usage("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
   if (o.feature_dim != 0) fail_usage("--feature-dim applies to --space latent (a feature field lifted to the latent)");
-  if (o.sh_degree < 0 || o.sh_degree > 3) fail_usage("--sh-degree must be 0..3");
-  if (o.iters < 1) fail_usage("--iters must be at least 1");
-  if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
-  if (o.scene_options.downscale < 1) fail_usage("--downscale must be at least 1");
-  const auto lock = prepare_output_dir(o.out, o.force, o.resume);
-
-  const SceneOptions& so = o.scene_options;
-  Scene scene = load_scene(o.scene, so);
-  if (scene.train_indices.empty()) fail(o.scene, "no training views");
-  log_info("scene " + o.scene + " (" + scene.format + "): " + std::to_string(scene.train_indices.size()) +
-           " training and " + std::to_string(scene.test_indices.size()) + " test views at " +
-           std::to_string(scene.views.front().camera.width) + "x" +
-           std::to_string(scene.views.front().camera.height) + ", " + std::to_string(scene.points.size()) +
-           " SfM points");
-
-  TrainerOptions to;
-  to.iterations = o.iters;
-  to.sh_degree = o.sh_degree;
-  to.mip = o.mip;
-  to.seed = o.seed;
-  to.sparse_adam = o.sparse_adam;
-  to.schedule = DensifySchedule::for_iterations(o.iters);
-  to.densify.max_gaussians = o.max_gaussians;
-  to.densify.grad_threshold = o.densify_grad;
-  to.coarse_factor = o.coarse_factor;
-  to.coarse_until = o.coarse_until < 0 ? to.schedule.until : o.coarse_until;
-  const float bg = o.white_background ? 1.0f : 0.0f;
-  to.background = torch::full({3}, bg);
-  const double extent = scene.camera_extent();
-
-  // config.json first: a folder being trained already says what it is.
-  auto config = run_record(to_json(o));
-  config.update(scene_config(o.scene, so, scene, o.out));
-  config["space"] = o.space;
-  config["sh_degree"] = o.sh_degree;
-  config["mip"] = o.mip;
-  config["background"] = {bg, bg, bg};
-  config["extent"] = extent;
-  config["schedule"] = {{"densify_from", to.schedule.from}, {"densify_until", to.schedule.until},
-                        {"densify_every", to.schedule.interval},
-                        {"opacity_reset_every", to.schedule.opacity_reset_every},
-                        {"sh_degree_every", to.schedule.sh_degree_every}};
-  if (to.coarse_factor > 1) config["coarse_phase"] = {{"factor", to.coarse_factor}, {"until_step", to.coarse_until}};
-  const std::string config_path = (std::filesystem::path(o.out) / "config.json").string();
-  write_json_file(config_path, config);
-
-  nlohmann::json init_points;
-  auto init = init_rgb_field(scene, o.sh_degree, o.seed, points, &init_points);
-  config["init_points"] = init_points;
-  write_json_file(config_path, config);
-  log_info("initial field: " + std::to_string(init.size()) + " Gaussians from " +
-           init_points.value("source", std::string("?")) + " points");
-  Trainer trainer(rgb_views(scene, scene.train_indices), std::move(init), extent, to);
-  RunOptions ro;
-  ro.out = o.out;
-  ro.resume = o.resume;
-  ro.checkpoint_every = o.checkpoint_every;
-  auto summary = run_training(trainer, ro);
-
-  config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians},
-                      {"seconds", summary.seconds}, {"final_loss", summary.last_loss}};
-  write_json_file(config_path, config);
-  log_info("wrote " + o.out + "/point_cloud.ply: " + std::to_string(summary.gaussians) + " Gaussians after " +
-           std::to_string(summary.steps) + " steps in " + Progress::format_duration(summary.seconds));
+  train_rgb_field(rgb_options(o, points));
   return 0;
 }
 
@@ -335,7 +310,8 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--cache-dir", o->cache_dir, "Where encoded views (latent) and triangulated points are cached "
                                                "(default $LRF_CACHE or ~/.cache/lrf)");
-  cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv)")->required();
+  cmd->add_option("-o,--out", o->out, "Output folder (config.json, point_cloud.ply, train_log.csv); required unless "
+                                     "--resume is given with the folder in place of the scene");
   lrf::cli::add_scene_options(cmd, &o->scene_options);
   lrf::cli::add_init_points_options(cmd, &o->init_points);
   auto* iters = cmd->add_option("--iters", o->iters,
@@ -371,7 +347,9 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                 "min(7000/iters, 4) times faster");
   cmd->add_flag("--resume", o->resume,
                 "Continue the run in the output folder from its last checkpoint, with its recorded settings "
-                "(--iters and --checkpoint-every may change)");
+                "(--iters and --checkpoint-every may change). Any field lrf train, compare or pipeline trained "
+                "continues so, e.g. `lrf train CMP/rgb_8 --resume --iters 14000`: the folder may stand in place of "
+                "the scene and -o");
   cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
   auto* checkpoint = cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")
       ->capture_default_str();
@@ -393,12 +371,16 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   lrf::cli::on_run(cmd, [cmd, o, iters, checkpoint, preset] {
     lrf::find_preset(lrf::train_presets(), o->preset);  // an unknown name is refused before anything else
     if (!o->resume) {
+      if (o->out.empty()) lrf::fail_usage("--out is required (the folder to train into)");
       lrf::cli::apply_preset(cmd, lrf::train_presets(), o->preset, o->space);
       return run_train(*o);
     }
+    // `lrf train OUT --resume`: the recorded scene is used anyway, so the folder may stand in its place.
+    if (o->out.empty()) o->out = o->scene;
     const bool preset_given = preset->count() > 0;
     if (lrf::nerf::is_nerf_run(o->out))
       return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
+    if (holds_rgb_run(o->out)) return resume_train_rgb(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
     return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0, preset_given));
   });
 });

@@ -28,7 +28,8 @@
 #include "lrf/points/initial_points.h"
 #include "lrf/refine/refine.h"
 #include "lrf/refine/refine_folder.h"
-#include "lrf/rgb/rgb_baseline.h"
+#include "lrf/rgb/rgb_eval.h"
+#include "lrf/rgb/rgb_train_run.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/run/train_run.h"
 
@@ -348,19 +349,23 @@ nlohmann::json run_compare(const CompareOptions& o) {
       all[method] = evaluate_latent_run(dir, le);
     } else {
       if (o.force || !splat::run_finished(dir)) {
-        RgbBaselineOptions b;
+        RgbTrainOptions b;
         b.scene = o.scene;
-        b.scene_options = so;
+        b.scene_options = so;  // cropped to multiples of 8, as the latent rows' views
         b.out = dir;
         b.factor = method.rfind("rgb/8", 0) == 0 ? 8 : 1;
         b.iters = o.iters;
         b.mip = method == "rgb/8-mip" || method == "rgb-mip";
         b.seed = o.seed;
         b.resume = resume;
+        b.force = !resume;
         b.init_points = o.init_points;
-        train_rgb_baseline(b);
+        b.task = "train-" + method;
+        train_rgb_field(b);
       }
-      all[method] = evaluate_rgb_run(dir, o.lpips_weights);
+      RgbEvalOptions re;
+      re.lpips_weights = o.lpips_weights;
+      all[method] = evaluate_rgb_run(dir, re);
     }
   }
 

@@ -10,6 +10,8 @@
 #include "lrf/core/threads.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/nerf/nerf_render.h"
+#include "lrf/nerf/nerf_run.h"
 #include "lrf/splat/run/run_folder.h"
 
 namespace lrf {
@@ -27,12 +29,11 @@ void check_size(const Camera& camera, int multiple) {
 class RgbFrames : public FieldFrames {
  public:
   explicit RgbFrames(const std::string& run) : run_(splat::open_field_run(run)) {}
-  bool latent() const override { return false; }
+  std::string space() const override { return "rgb"; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 1; }
-  long gaussians() const override { return static_cast<long>(run_.field.size()); }
   std::string describe() const override {
-    return "RGB field, " + std::to_string(gaussians()) + " Gaussians, SH degree " +
+    return "RGB field, " + std::to_string(run_.field.size()) + " Gaussians, SH degree " +
            std::to_string(run_.render.sh_degree) + (run_.render.mip ? ", Mip-Splatting" : "");
   }
   cv::Mat render(const Camera& camera, FrameTiming* timing) override {
@@ -56,13 +57,12 @@ class LatentFrames : public FieldFrames {
     decoder_ = decoder.empty() ? run_.decoder : decoder;
     ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
   }
-  bool latent() const override { return true; }
+  std::string space() const override { return "latent"; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 8; }
-  long gaussians() const override { return static_cast<long>(run_.field.size()); }
   std::string describe() const override {
     return "latent field (" + run_.autoencoder + ", " + std::to_string(run_.range.channels()) + " channels), " +
-           std::to_string(gaussians()) + " Gaussians, decoded by " +
+           std::to_string(run_.field.size()) + " Gaussians, decoded by " +
            (decoder_.empty() ? "the autoencoder's decoder" : decoder_);
   }
   cv::Mat render(const Camera& camera, FrameTiming* timing) override {
@@ -70,7 +70,7 @@ class LatentFrames : public FieldFrames {
     apply_thread_count_to_this_thread();
     torch::NoGradGuard no_grad;
     const auto t0 = Clock::now();
-    auto zn = splat::render_field(run_.field, latent_camera(camera), run_.render).image;
+    auto zn = render_latent_at(run_, latent_camera(camera));  // a feature field's features lifted to latents
     const double render_ms = ms_since(t0);
     const auto t1 = Clock::now();
     auto image = decode_normalised(*ae_, run_.range, zn);
@@ -85,9 +85,45 @@ class LatentFrames : public FieldFrames {
   std::unique_ptr<Autoencoder> ae_;
 };
 
+// A latent NeRF renders the same normalised latents as a latent field, ray by ray, and is decoded alike
+// (through the autoencoder's decoder unless told otherwise: a NeRF is never refined through another).
+class NerfFrames : public FieldFrames {
+ public:
+  NerfFrames(const std::string& run, const std::string& decoder) : run_(nerf::open_nerf_run(run)), decoder_(decoder) {
+    ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
+  }
+  std::string space() const override { return "latent-nerf"; }
+  const Scene& scene() const override { return run_.scene; }
+  int size_multiple() const override { return 8; }
+  std::string describe() const override {
+    return "latent NeRF (" + run_.autoencoder + ", " + std::to_string(run_.range.channels()) + " channels), " +
+           std::to_string(run_.field.parameter_count()) + " parameters, decoded by " +
+           (decoder_.empty() ? "the autoencoder's decoder" : decoder_);
+  }
+  cv::Mat render(const Camera& camera, FrameTiming* timing) override {
+    check_size(camera, 8);
+    apply_thread_count_to_this_thread();
+    torch::NoGradGuard no_grad;
+    const auto t0 = Clock::now();
+    auto zn = nerf::render_view(run_.field, latent_camera(camera));
+    const double render_ms = ms_since(t0);
+    const auto t1 = Clock::now();
+    auto image = decode_normalised(*ae_, run_.range, zn);
+    cv::Mat frame = to_u8(tensor_to_image(image));
+    if (timing) *timing = {render_ms, ms_since(t1)};
+    return frame;
+  }
+
+ private:
+  nerf::NerfRun run_;
+  std::string decoder_;
+  std::unique_ptr<Autoencoder> ae_;
+};
+
 }  // namespace
 
 std::unique_ptr<FieldFrames> FieldFrames::open(const std::string& run, const std::string& decoder) {
+  if (nerf::is_nerf_run(run)) return std::make_unique<NerfFrames>(run, decoder);
   if (is_latent_run(run)) return std::make_unique<LatentFrames>(run, decoder);
   if (!decoder.empty()) fail(run, "--decoder applies to latent fields; this is an RGB field");
   return std::make_unique<RgbFrames>(run);

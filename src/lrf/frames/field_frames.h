@@ -1,8 +1,9 @@
 #pragma once
-// Frames of a trained field for any camera, whatever its space: an RGB field is rendered directly; a
-// latent field is rendered at latent resolution (the camera's size / 8) and decoded, by the decoder it
-// was refined through (as lrf eval and lrf render use it) or by an override. Used by camera-path videos
-// and by the viewer's server.
+// Frames of a trained field for any camera, whatever its kind: an RGB field is rendered directly; a
+// latent field (or a feature field lifted to the latent) and a latent NeRF are rendered at latent
+// resolution (the camera's size / 8) and decoded, by the decoder a refined field was fitted through (as
+// lrf eval and lrf render use it), the autoencoder's, or an override. Used by camera-path videos and by
+// the viewer's server.
 #include <memory>
 #include <string>
 
@@ -19,18 +20,21 @@ struct FrameTiming {
 
 class FieldFrames {
  public:
-  // Opens an output folder of lrf train or lrf refine. `decoder` replaces a latent field's decoder
-  // (Stage III weights); it is refused for RGB fields. Throws lrf::Error naming the file on a bad folder.
+  // Opens an output folder of lrf train or lrf refine (or a method's folder of lrf compare). `decoder`
+  // replaces a latent field's or NeRF's decoder (Stage III weights); it is refused for RGB fields. Throws
+  // lrf::Error naming the file on a bad folder.
   static std::unique_ptr<FieldFrames> open(const std::string& run, const std::string& decoder = "");
   virtual ~FieldFrames() = default;
 
-  virtual bool latent() const = 0;
+  // The run's "space": rgb, latent or latent-nerf.
+  virtual std::string space() const = 0;
+  // Frames are decoded from rendered latents (every space but rgb).
+  bool latent() const { return space() != "rgb"; }
   // The scene at the field's training resolution (latent fields: cropped to multiples of 8).
   virtual const Scene& scene() const = 0;
   // Frame sizes must be multiples of this (8 for latent fields: the decoder upsamples by 8).
   virtual int size_multiple() const = 0;
-  virtual long gaussians() const = 0;
-  // One line for logs: the space, channels, autoencoder and decoder.
+  // One line for logs: the space, size, channels, autoencoder and decoder.
   virtual std::string describe() const = 0;
   // The frame `camera` sees, as 8-bit RGB (CV_8UC3), camera.width x camera.height. Not thread-safe:
   // callers serialise (rendering and decoding use every worker thread anyway).

@@ -61,8 +61,11 @@ LatentRun open_latent_run(const std::string& out) {
 }
 
 torch::Tensor render_latent(const LatentRun& run, int view) {
-  Camera cam = latent_camera(run.scene.views.at(static_cast<size_t>(view)).camera);
-  torch::Tensor rendered = splat::render_field(run.field, cam, run.render).image;
+  return render_latent_at(run, latent_camera(run.scene.views.at(static_cast<size_t>(view)).camera));
+}
+
+torch::Tensor render_latent_at(const LatentRun& run, const Camera& latent_camera) {
+  torch::Tensor rendered = splat::render_field(run.field, latent_camera, run.render).image;
   if (!run.lift.defined()) return rendered;
   torch::NoGradGuard no_grad;
   return run.lift.apply(rendered);

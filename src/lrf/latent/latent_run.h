@@ -80,6 +80,8 @@ bool is_latent_run(const std::string& out);
 // Renders view i's normalised latent [C, h, w] (latent resolution of the training camera); a feature
 // field's rendered features are lifted to the latent channels first.
 torch::Tensor render_latent(const LatentRun& run, int view);
+// The same for any camera at latent resolution (latent_camera of an image camera).
+torch::Tensor render_latent_at(const LatentRun& run, const Camera& latent_camera);
 
 struct LatentEvalOptions {
   std::string decoder;        // decoder override (Stage III) ("" = the run's own: see LatentRun::decoder)

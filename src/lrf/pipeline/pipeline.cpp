@@ -16,7 +16,8 @@
 #include "lrf/core/run_info.h"
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
-#include "lrf/rgb/rgb_baseline.h"
+#include "lrf/rgb/rgb_eval.h"
+#include "lrf/rgb/rgb_train_run.h"
 #include "lrf/scene/scene.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
@@ -153,20 +154,30 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
 void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
                       int factor, bool mip) {
   if (reusable_field(dir, wanted_field_settings(scene, downscale, o.eval_train_views, o, ""))) return;
-  RgbBaselineOptions b;
+  RgbTrainOptions b;
   b.scene = scene;
   b.scene_options.downscale = downscale;
   b.scene_options.train_views = o.eval_train_views;
+  b.scene_options.crop_to_multiple_of_8 = true;  // the latent fields' views
   b.out = dir;
   b.factor = factor;
   b.iters = o.field_iters;
   b.mip = mip;
   b.seed = o.seed;
   b.resume = fs::exists(splat::checkpoint_path(dir));
+  b.force = !b.resume;
+  b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
   log_info("== RGB field " + dir + (b.resume ? " (resuming)" : "") + ": " + std::to_string(b.iters) + " steps on " +
            scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
            (mip ? ", with Mip-Splatting's filters" : ""));
-  train_rgb_baseline(b);
+  train_rgb_field(b);
+}
+
+// The RGB rows are scored as lrf eval scores an RGB run.
+RgbEvalOptions rgb_eval_options(const PipelineOptions& o) {
+  RgbEvalOptions e;
+  e.lpips_weights = o.lpips_weights;
+  return e;
 }
 
 // A field refined through `decoder` (refine_folder.h: reused, continued to more steps, resumed or made).
@@ -419,7 +430,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
       run_unit(std::string(b.row) + " of " + paths.eval_label(s), [&] {
         const std::string rgb = paths.eval_field(s, b.tag);
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
-        if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, o.lpips_weights);
+        if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, rgb_eval_options(o));
         return std::string();
       });
     }
@@ -595,7 +606,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
         ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
         const std::string metrics = (fs::path(rgb) / "metrics.json").string();
         auto scores = reusable_scores(metrics);
-        m[b.row] = scores ? *scores : evaluate_rgb_run(rgb, o.lpips_weights);
+        m[b.row] = scores ? *scores : evaluate_rgb_run(rgb, rgb_eval_options(o));
         image_dirs[b.row] = (fs::path(rgb) / "eval").string();
       }
     }

@@ -12,8 +12,8 @@ namespace lrf::viewer {
 // quantile of the SfM points' distances from that centre.
 ViewLimits view_limits(const FieldFrames& frames, int max_side);
 
-// {space, description, size_multiple, max_side, center, radius, target, up, views: [{name, split, width,
-// height, fx, fy, cx, cy, R (row-major), t}]}.
+// {space (rgb, latent or latent-nerf), description, size_multiple, max_side, center, radius, target, up,
+// views: [{name, split, width, height, fx, fy, cx, cy, R (row-major), t}]}.
 nlohmann::json scene_json(const FieldFrames& frames, const ViewLimits& limits);
 
 }  // namespace lrf::viewer

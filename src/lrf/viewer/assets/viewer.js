@@ -190,7 +190,7 @@
     $('fps').textContent = `FPS ${stats.fps}`;
     const ms = (name) => headers.get(name) || '?';
     $('timing').textContent = `${size[0]}×${size[1]} ${full ? 'full' : 'low'} · render ${ms('X-Lrf-Render-Ms')} ms` +
-        (scene.space === 'latent' ? ` · decode ${ms('X-Lrf-Decode-Ms')} ms` : '');
+        (scene.space !== 'rgb' ? ` · decode ${ms('X-Lrf-Decode-Ms')} ms` : '');
     $('status').textContent = '';
     $('status').className = 'stat';
   }
