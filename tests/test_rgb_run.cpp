@@ -46,7 +46,9 @@ size_t png_count(const std::string& dir) {
 // Weights of the right layout with random values: enough for LPIPS to run (the value is not checked).
 std::string random_lpips_weights(const std::string& path) {
   lrf::StateDict sd;
-  for (const auto& [key, shape] : lrf::Lpips::expected_keys()) sd.insert(key, torch::rand(shape) * 0.1);
+  for (const auto& [key, shape] : lrf::Lpips::expected_keys())
+    if (key.rfind("scaling_layer.", 0) != 0) sd.insert(key, torch::rand(shape) * 0.1);
+  // The loader checks these against LPIPS v0.1's constants.
   sd.insert("scaling_layer.shift", torch::tensor({-0.030f, -0.088f, -0.188f}).view({1, 3, 1, 1}));
   sd.insert("scaling_layer.scale", torch::tensor({0.458f, 0.448f, 0.450f}).view({1, 3, 1, 1}));
   lrf::write_safetensors(path, sd);

@@ -191,22 +191,6 @@ int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoin
   return 0;
 }
 
-nlohmann::json to_json(const TrainOptions& o) {
-  return {{"scene", o.scene},       {"space", o.space},         {"out", o.out},
-          {"images", o.scene_options.images_dir}, {"downscale", o.scene_options.downscale},
-          {"test_every", o.scene_options.test_every}, {"train_views", o.scene_options.train_views},
-          {"test_list", o.scene_options.test_list},
-          {"format", o.scene_options.format}, {"crop8", o.scene_options.crop_to_multiple_of_8}, {"iters", o.iters},
-          {"sh_degree", o.sh_degree}, {"mip", o.mip},           {"seed", o.seed},
-          {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"resume", o.resume}, {"force", o.force},
-          {"checkpoint_every", o.checkpoint_every},
-          {"sparse_adam", o.sparse_adam}, {"white_background", o.white_background},
-          {"coarse_factor", o.coarse_factor}, {"coarse_until", o.coarse_until},
-          {"feature_dim", o.feature_dim},
-          {"init_points", o.init_points.mode}, {"far_shell", o.init_points.shell.points},
-          {"far_shell_radius", o.init_points.shell.radius_factor}, {"preset", o.preset}};
-}
-
 // --resume of a latent (or feature) field continues the run as it was started: every setting comes from
 // OUT/config.json except the ones given on this command line among --iters, --checkpoint-every and
 // --cache-dir (which only says where encoded views are kept).
