@@ -350,6 +350,25 @@ TEST(Pipeline, PerSceneResolutionsReachEveryFieldAndTheMeanAveragesTheScenes) {
   EXPECT_NE(msg.find("scene_resolutions"), std::string::npos) << msg;
 }
 
+// The command line: the help shows the syntax, and a scene argument lrf cannot parse is a usage error
+// (exit status 2) before anything is written.
+TEST(Pipeline, CommandLineTakesScenesWithTheirOwnResolution) {
+  const auto help = lrf::test::run_lrf("pipeline --help");
+  EXPECT_EQ(help.exit_code, 0) << help.output;
+  EXPECT_NE(help.output.find("PATH:--images=DIR"), std::string::npos) << help.output;
+  EXPECT_NE(help.output.find("PATH:--downscale=N"), std::string::npos) << help.output;
+
+  lrf::test::TempDir dir("pipeline_cli_scenes");
+  const std::string scene = lrf::test::synthetic_scene(), other = lrf::test::synthetic_scene({8, "64x48", 11, 800});
+  auto r = lrf::test::run_lrf("pipeline --train-scenes '" + scene + "' --eval-scenes '" + other +
+                              ":--downscale=2x' -o '" + (dir / "run") + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--eval-scenes: scene '" + other + ":--downscale=2x': --downscale '2x' is not a whole number"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir / "run"));
+}
+
 TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {
   lrf::test::TempDir dir("pipeline_overlap");
   lrf::PipelineOptions o = tiny_pipeline(dir / "run");
