@@ -11,6 +11,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"
 #include "lrf/pipeline/pipeline.h"
+#include "lrf/pipeline/scene_mean.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -54,6 +55,19 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   const std::string csv = lrf::read_file(dir / "run/ablation.csv");
   for (const auto& row : lrf::ablation_rows()) EXPECT_NE(csv.find("," + row + ","), std::string::npos) << row;
   EXPECT_EQ(csv.rfind("scene,method,psnr,delta_psnr,ssim,ms_ssim,flip,lpips,", 0), 0u) << csv;
+  // With one evaluation scene, every row's mean is that scene's row.
+  {
+    const std::string scene = fs::path(o.eval_scenes[0]).filename().string();
+    for (const auto& row : lrf::ablation_rows()) {
+      const size_t at = csv.find("\n" + scene + "," + row + ",");
+      const size_t mean_at = csv.find("\nmean," + row + ",");
+      ASSERT_NE(at, std::string::npos) << row;
+      ASSERT_NE(mean_at, std::string::npos) << row << "\n" << csv;
+      const std::string cells = csv.substr(at + scene.size() + 1, csv.find('\n', at + 1) - at - scene.size() - 1);
+      EXPECT_EQ(csv.substr(mean_at + 5, csv.find('\n', mean_at + 1) - mean_at - 5), cells) << row;
+    }
+    EXPECT_NE(lrf::read_file(dir / "run/report.html").find("Mean over 1 evaluation scene"), std::string::npos);
+  }
 
   // Wall time per stage, from each stage's own record: every stage took time, and the table's total is
   // the sum of its rows.
@@ -221,6 +235,139 @@ TEST(Pipeline, ShardsSplitThePerSceneStepsAndThePlainCommandFinishes) {
   for (const char* bad : {"2/2", "1", "a/2", "-1/2", "0/0", "1/2x"}) {
     EXPECT_NE(error_of([&] { lrf::parse_shard(bad, &o); }).find("--shard"), std::string::npos) << bad;
   }
+}
+
+// The mean over the evaluation scenes: column by column, only for methods every scene has, and a score
+// only where every scene has it.
+TEST(PipelineMean, AveragesEachRowOverTheScenesThatAllHaveIt) {
+  const std::vector<std::string> header = {"scene", "method", "psnr", "lpips"};
+  const std::vector<lrf::Row> rows = {
+      {"fern", "stock", 20.0, 0.3}, {"fern", "both", 22.0, lrf::Cell()}, {"fern", "rgb/8", 18.0, 0.5},
+      {"room", "stock", 24.0, 0.1}, {"room", "both", 27.0, 0.2},
+  };
+  lrf::SceneMean mean = lrf::mean_over_scenes(header, rows, {"fern", "room"}, {"rgb/8", "stock", "both", "rgb"});
+  ASSERT_EQ(mean.rows.size(), 2u);  // rgb/8 lacks room's row; rgb is no scene's row
+  EXPECT_EQ(mean.rows[0][0].text, "mean");
+  EXPECT_EQ(mean.rows[0][1].text, "stock");
+  EXPECT_DOUBLE_EQ(mean.rows[0][2].number, 22.0);
+  EXPECT_DOUBLE_EQ(mean.rows[0][3].number, 0.2);
+  EXPECT_EQ(mean.rows[1][1].text, "both");
+  EXPECT_DOUBLE_EQ(mean.rows[1][2].number, 24.5);
+  EXPECT_TRUE(mean.rows[1][3].missing());
+  EXPECT_EQ(mean.left_out, (std::vector<std::string>{"rgb/8: no row for room", "both: lpips missing for fern"}));
+
+  // One scene: its rows are the mean; a score no scene has is missing without a note.
+  mean = lrf::mean_over_scenes(header, {{"fern", "stock", 20.5, lrf::Cell()}}, {"fern"}, {"stock"});
+  ASSERT_EQ(mean.rows.size(), 1u);
+  EXPECT_DOUBLE_EQ(mean.rows[0][2].number, 20.5);
+  EXPECT_TRUE(mean.rows[0][3].missing());
+  EXPECT_TRUE(mean.left_out.empty());
+}
+
+// Scenes with resolutions of their own: PATH:--downscale=N reaches every field of that scene (and Stage I
+// for a training scene), the record says what each scene was given and used, a folder made at another
+// resolution is refused, and the mean rows average the scenes' rows.
+TEST(Pipeline, PerSceneResolutionsReachEveryFieldAndTheMeanAveragesTheScenes) {
+  lrf::test::TempDir dir("pipeline_per_scene");
+  lrf::PipelineOptions o = tiny_pipeline(dir / "run");
+  const std::string small = o.eval_scenes[0];                                      // 64x48
+  const std::string large = lrf::test::synthetic_scene({8, "128x96", 3, 800});    // 128x96, halved
+  const std::string train = o.train_scenes[0];
+  o.train_scenes = {train + ":--downscale=1"};
+  o.eval_scenes = {small, large + ":--downscale=2"};
+  o.rgb_full = false;
+  o.refine_rows = false;
+
+  // Checked before any stage: a bad option, a missing scene, a downscale too large for the images.
+  for (const auto& [bad, expected] : std::vector<std::pair<std::string, std::string>>{
+           {large + ":--size=2", "--eval-scenes: scene '" + large + ":--size=2': unknown option '--size=2'"},
+           {large + ":--downscale=two", "--downscale 'two' is not a whole number"},
+           {large + "-missing:--downscale=2", large + "-missing: scene folder not found"},
+           {large + ":--images=images_2", "image folder not found (--images=images_2 of '" + large + ":--images=images_2')"},
+           {large + ":--downscale=4", large + ":--downscale=4: "}}) {
+    lrf::PipelineOptions b = o;
+    b.eval_scenes = {small, bad};
+    const std::string msg = error_of([&] { lrf::run_pipeline(b); });
+    EXPECT_NE(msg.find(expected), std::string::npos) << bad << ": " << msg;
+    EXPECT_FALSE(fs::exists(dir / "run/stage1")) << bad;
+  }
+  lrf::PipelineOptions b = o;
+  b.train_scenes = {train + ":--images"};
+  EXPECT_NE(error_of([&] { lrf::run_pipeline(b); }).find("--train-scenes: scene '"), std::string::npos);
+
+  const nlohmann::json record = lrf::run_pipeline(o);
+  const std::string small_name = fs::path(small).filename().string(), large_name = fs::path(large).filename().string();
+  for (const char* tag : {"stock", "ft", "rgb8"}) {
+    const nlohmann::json halved = lrf::read_json_file(dir / ("run/fields/" + large_name + "-" + tag + "/config.json"));
+    EXPECT_EQ(halved["downscale"], 2) << tag;
+    EXPECT_EQ(halved["resolution"], (nlohmann::json{64, 48})) << tag;
+    const nlohmann::json plain = lrf::read_json_file(dir / ("run/fields/" + small_name + "-" + tag + "/config.json"));
+    EXPECT_EQ(plain["downscale"], 1) << tag;
+    EXPECT_EQ(plain["resolution"], (nlohmann::json{64, 48})) << tag;
+  }
+  const nlohmann::json resolutions = record["options"]["scene_resolutions"];
+  EXPECT_EQ(resolutions[large_name]["argument"], large + ":--downscale=2");
+  EXPECT_EQ(resolutions[large_name]["given"]["downscale"], 2);
+  EXPECT_EQ(resolutions[large_name]["used"]["downscale"], 2);
+  EXPECT_EQ(resolutions[small_name]["given"]["downscale"], 0);
+  EXPECT_EQ(resolutions[small_name]["used"]["downscale"], 1);
+  // The training scene's own resolution reached Stage I (its record), and so its resume key.
+  const nlohmann::json stage1 = lrf::read_json_file(dir / "run/stage1/encoder.json")["options"];
+  EXPECT_EQ(stage1["scene_resolutions"], (nlohmann::json{{{"images", ""}, {"downscale", 1}}})) << stage1.dump();
+
+  // Each row's mean (record, CSV, report) is the average of the two scenes' rows.
+  const nlohmann::json& results = record["results"];
+  const nlohmann::json& mean = record["mean"]["scores"];
+  const std::string csv = lrf::read_file(dir / "run/ablation.csv");
+  for (const char* row : {"rgb/8", "rgb/8-mip", "stock", "encoder", "decoder", "both"}) {
+    ASSERT_TRUE(mean.contains(row)) << row << " " << mean.dump();
+    for (const char* metric : {"psnr", "ssim", "ms_ssim", "flip"}) {
+      const nlohmann::json& a = results[small_name][row][metric];
+      const nlohmann::json& b = results[large_name][row][metric];
+      if (a.is_null() || b.is_null()) {  // a score these tiny views are too small for (MS-SSIM's scales)
+        EXPECT_TRUE(mean[row][metric].is_null()) << row << " " << metric;
+        continue;
+      }
+      EXPECT_NEAR(mean[row][metric].get<double>(), (a.get<double>() + b.get<double>()) / 2, 1e-9) << row << " " << metric;
+    }
+    EXPECT_TRUE(mean[row]["psnr"].is_number() && mean[row]["flip"].is_number()) << row << " " << mean[row].dump();
+    EXPECT_NE(csv.find("\nmean," + std::string(row) + ","), std::string::npos) << row;
+  }
+  EXPECT_TRUE(record["mean"]["left_out"].empty()) << record["mean"].dump();
+  EXPECT_NE(lrf::read_file(dir / "run/report.html").find("Mean over 2 evaluation scenes"), std::string::npos);
+  EXPECT_NE(lrf::read_file(dir / "run/ablation.md").find("| mean "), std::string::npos);
+
+  // The same folder with the scene at another resolution is refused, not reused.
+  b = o;
+  b.eval_scenes = {small, large};
+  std::string msg = error_of([&] { lrf::run_pipeline(b); });
+  EXPECT_NE(msg.find("the field in this folder was made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("downscale (2 vs 1)"), std::string::npos) << msg;
+  // So is Stage I, when a training scene loses its own resolution.
+  b = o;
+  b.train_scenes = {train};
+  msg = error_of([&] { lrf::run_pipeline(b); });
+  EXPECT_NE(msg.find("the Stage I encoder in this folder was made with other settings"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("scene_resolutions"), std::string::npos) << msg;
+}
+
+// The command line: the help shows the syntax, and a scene argument lrf cannot parse is a usage error
+// (exit status 2) before anything is written.
+TEST(Pipeline, CommandLineTakesScenesWithTheirOwnResolution) {
+  const auto help = lrf::test::run_lrf("pipeline --help");
+  EXPECT_EQ(help.exit_code, 0) << help.output;
+  EXPECT_NE(help.output.find("PATH:--images=DIR"), std::string::npos) << help.output;
+  EXPECT_NE(help.output.find("PATH:--downscale=N"), std::string::npos) << help.output;
+
+  lrf::test::TempDir dir("pipeline_cli_scenes");
+  const std::string scene = lrf::test::synthetic_scene(), other = lrf::test::synthetic_scene({8, "64x48", 11, 800});
+  auto r = lrf::test::run_lrf("pipeline --train-scenes '" + scene + "' --eval-scenes '" + other +
+                              ":--downscale=2x' -o '" + (dir / "run") + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--eval-scenes: scene '" + other + ":--downscale=2x': --downscale '2x' is not a whole number"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(fs::exists(dir / "run"));
 }
 
 TEST(Pipeline, RefusesAnEvaluationSceneThatIsAlsoATrainingScene) {

@@ -17,18 +17,28 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       "stock and the new encoder, Stage III (decoder) on the training scenes' fields, then on the evaluation scenes "
       "the rows stock / encoder / decoder / both, the stock and both fields refined through their decoder "
       "(stock+refine, both+refine) and the image-space baselines rgb/8, rgb/8-mip, rgb and rgb-mip: DIR/ablation.csv, "
-      "DIR/ablation.md, DIR/report.html, DIR/stages.csv and stages.md (wall time per stage, from the stages' own "
+      "DIR/ablation.md (each scene's rows, then every row's mean over the evaluation scenes), DIR/report.html, DIR/stages.csv and stages.md (wall time per stage, from the stages' own "
       "records, over every session that worked on them), DIR/pipeline.json (inputs of every stage). Finished steps are reused and interrupted ones resumed when the same "
       "command is run again; a larger --refine-steps continues the finished refinements made at constant rates (--refine-lr-final 1) and "
       "scores their rows again");
   auto o = std::make_shared<lrf::PipelineOptions>();
-  cmd->add_option("--train-scenes", o->train_scenes, "Scenes for Stage I and Stage III")->required();
-  cmd->add_option("--eval-scenes", o->eval_scenes, "Unseen scenes the ablation is measured on")->required();
+  cmd->add_option("--train-scenes", o->train_scenes,
+                  "Scenes for Stage I and Stage III; each a folder, optionally with its own resolution as for "
+                  "--eval-scenes")
+      ->required();
+  cmd->add_option("--eval-scenes", o->eval_scenes,
+                  "Unseen scenes the ablation is measured on, each a folder, optionally followed by its own "
+                  "resolution: PATH:--images=DIR (the scene's image folder DIR, e.g. images_8), PATH:--downscale=N "
+                  "(its images area-resized by N instead of --max-side's factor), or both "
+                  "(PATH:--images=DIR:--downscale=N). Every field, refinement and score of the scene is made at it "
+                  "(a folder made at another is refused). The tables add the mean over the evaluation scenes of "
+                  "every row")
+      ->required();
   cmd->add_option("-o,--output", o->out, "Output folder")->required();
   cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder (name, folder or weights file)")->capture_default_str();
   cmd->add_option("--max-side", o->max_side,
                   "Downscale each scene's images by the smallest integer factor bringing the longer side to at most "
-                  "this many pixels")
+                  "this many pixels (scenes given a :--downscale=N of their own use theirs)")
       ->capture_default_str();
   cmd->add_option("--field-iters", o->field_iters, "Iterations of every latent field and of the RGB baselines")
       ->capture_default_str();

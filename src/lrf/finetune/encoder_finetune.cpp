@@ -28,7 +28,7 @@ at::Tensor gaussian_kl(const at::Tensor& mu_a, const at::Tensor& logvar_a, const
 }  // namespace
 
 nlohmann::json encoder_finetune_options_json(const EncoderFinetuneOptions& o) {
-  return {{"scenes", o.scenes},
+  nlohmann::json j = {{"scenes", o.scenes},
           {"correspondence_files", o.correspondence_files},
           {"autoencoder", o.autoencoder},
           {"encoder", o.encoder},
@@ -46,6 +46,11 @@ nlohmann::json encoder_finetune_options_json(const EncoderFinetuneOptions& o) {
           {"lr", o.lr},
           {"seed", o.seed},
           {"checkpoint_every", o.checkpoint_every}};
+  if (!o.scene_resolutions.empty()) {
+    j["scene_resolutions"] = nlohmann::json::array();
+    for (const auto& r : o.scene_resolutions) j["scene_resolutions"].push_back(r.json());
+  }
+  return j;
 }
 
 namespace {
@@ -168,6 +173,10 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
     fail("finetune-encoder: " + std::to_string(o.correspondence_files.size()) + " correspondence files for " +
          std::to_string(o.scenes.size()) + " scenes (give one per scene, in the same order)");
   }
+  if (!o.scene_resolutions.empty() && o.scene_resolutions.size() != o.scenes.size()) {
+    fail("finetune-encoder: " + std::to_string(o.scene_resolutions.size()) + " scene resolutions for " +
+         std::to_string(o.scenes.size()) + " scenes (give one per scene, in the same order)");
+  }
   if (o.out.empty()) fail("finetune-encoder: no output file (-o)");
   if (o.steps < 1 || o.batch.pairs < 1) fail("finetune-encoder: --steps and --pairs must be at least 1");
   const int world = std::max(1, o.distributed.world_size);
@@ -192,7 +201,11 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
     }
     for (size_t s = 0; s < o.scenes.size(); ++s) {
       SceneOptions so;
-      so.downscale = 0;
+      so.downscale = 0;  // from max_side, unless the scene has its own
+      if (!o.scene_resolutions.empty()) {
+        so.images_dir = o.scene_resolutions[s].images;
+        so.downscale = o.scene_resolutions[s].downscale;
+      }
       scenes.push_back(load_pair_scene(o.scenes[s], so, o.max_side,
                                        o.correspondence_files.empty() ? "" : o.correspondence_files[s], o.min_matches));
     }

@@ -20,12 +20,16 @@
 #include "lrf/distributed/distributed_options.h"
 #include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/pair_batches.h"
+#include "lrf/scene/scene_spec.h"
 
 namespace lrf {
 
 struct EncoderFinetuneOptions {
   std::vector<std::string> scenes;
   std::vector<std::string> correspondence_files;  // optional, one per scene
+  // Optional, one per scene: its image folder and downscale (0: from max_side), for scenes that each need
+  // their own (lrf pipeline's PATH:--images=DIR). Recorded only when given, so earlier records still match.
+  std::vector<SceneResolution> scene_resolutions;
   std::string autoencoder = "taef2", encoder;     // model and an optional starting encoder
   std::string out;                                // the fine-tuned encoder (.safetensors)
   int max_side = 640;                             // scenes are downscaled so their longer side fits

@@ -7,6 +7,7 @@
 #include <optional>
 #include <set>
 
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
 #include "lrf/core/paths.h"
@@ -25,7 +26,10 @@
 #include "lrf/refine/refine_folder.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
+#include "lrf/pipeline/pipeline_scenes.h"
+#include "lrf/pipeline/scene_mean.h"
 #include "lrf/pipeline/stage_times.h"
+#include "lrf/scene/scene_spec.h"
 #include "lrf/splat/run/train_run.h"
 
 namespace fs = std::filesystem;
@@ -78,23 +82,25 @@ void require_same_settings(const std::string& record, const nlohmann::json& reco
   }
 }
 
-// The settings that decide a field: scene, resolution, length, seed, (latent) the autoencoder's identity and,
-// for a K-view split, the track rule its initial points were triangulated with (none: the scene's own points).
-nlohmann::json field_settings(const std::string& scene, int downscale, int train_views, int64_t iters, uint64_t seed,
-                              const std::string& autoencoder_id, const nlohmann::json& min_track_length) {
-  nlohmann::json j = {{"scene", canonical_path(scene)}, {"downscale", downscale}, {"few_shot_views", train_views},
-                      {"iters", iters}, {"seed", seed}};
+// The settings that decide a field: scene, resolution (image folder and downscale), length, seed, (latent)
+// the autoencoder's identity and, for a K-view split, the track rule its initial points were triangulated
+// with (none: the scene's own points).
+nlohmann::json field_settings(const std::string& scene, const std::string& images, int downscale, int train_views,
+                              int64_t iters, uint64_t seed, const std::string& autoencoder_id,
+                              const nlohmann::json& min_track_length) {
+  nlohmann::json j = {{"scene", canonical_path(scene)}, {"images", images}, {"downscale", downscale},
+                      {"few_shot_views", train_views}, {"iters", iters}, {"seed", seed}};
   if (!autoencoder_id.empty()) j["autoencoder_identity"] = autoencoder_id;
   if (train_views > 0 && !min_track_length.is_null()) j["initial_points_min_track_length"] = min_track_length;
   return j;
 }
 
-nlohmann::json wanted_field_settings(const std::string& scene, int downscale, int train_views, const PipelineOptions& o,
-                                     const std::string& autoencoder_id) {
+nlohmann::json wanted_field_settings(const std::string& scene, const SceneResolution& resolution, int train_views,
+                                     const PipelineOptions& o, const std::string& autoencoder_id) {
   // The pipeline's fields always start from `auto` points.
   const std::optional<int> rule = few_shot_track_rule("auto", train_views);
-  return field_settings(scene, downscale, train_views, o.field_iters, o.seed, autoencoder_id,
-                        rule ? nlohmann::json(*rule) : nlohmann::json());
+  return field_settings(scene, resolution.images, resolution.downscale, train_views, o.field_iters, o.seed,
+                        autoencoder_id, rule ? nlohmann::json(*rule) : nlohmann::json());
 }
 
 // A record without the rule (written before it was recorded) gives null: the setting is then missing.
@@ -110,7 +116,8 @@ bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
   const std::string record = (fs::path(dir) / "config.json").string();
   const nlohmann::json config = read_json_file(record);
   const nlohmann::json& options = config.at("options");
-  const nlohmann::json recorded = field_settings(config.value("scene", std::string()), config.value("downscale", 0),
+  const nlohmann::json recorded = field_settings(config.value("scene", std::string()),
+                                                 config.value("images", std::string()), config.value("downscale", 0),
                                                  config.value("few_shot_views", 0),
                                                  options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
                                                  config.value("autoencoder_identity", std::string()),
@@ -123,19 +130,23 @@ bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
 // The recorded options of a fine-tuning step, without the checkpoint interval, which does not change the result.
 nlohmann::json finetune_settings(nlohmann::json options) {
   options.erase("checkpoint_every");
+  // Stage I records its scenes' own resolutions only when some scene has them (so that records from before
+  // they existed still match); without them every scene is at its default, which is compared as null.
+  if (!options.contains("scene_resolutions")) options["scene_resolutions"] = nullptr;
   return options;
 }
 
-void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int downscale, int train_views,
-                         const std::string& dir, const std::string& encoder) {
-  if (reusable_field(dir, wanted_field_settings(scene, downscale, train_views, o,
+void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
+                         int train_views, const std::string& dir, const std::string& encoder) {
+  if (reusable_field(dir, wanted_field_settings(scene, resolution, train_views, o,
                                                 autoencoder_identity(o.autoencoder, encoder)))) {
     return;
   }
   LatentTrainOptions l;
   l.scene = scene;
   l.out = dir;
-  l.downscale = downscale;
+  l.images = resolution.images;
+  l.downscale = resolution.downscale;
   l.train_views = train_views;
   l.autoencoder = o.autoencoder;
   l.encoder = encoder;
@@ -146,17 +157,19 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, int
   l.force = !l.resume;
   log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
            " steps on the " + (encoder.empty() ? "stock" : "Stage I") + " encoder's latents of " + scene +
-           " (images downscaled " + std::to_string(downscale) + "x)");
+           " (" + (resolution.images.empty() ? "images" : resolution.images) + " downscaled " +
+           std::to_string(resolution.downscale) + "x)");
   train_latent_field(l);
 }
 
 // An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
-void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, int downscale, const std::string& dir,
-                      int factor, bool mip) {
-  if (reusable_field(dir, wanted_field_settings(scene, downscale, o.eval_train_views, o, ""))) return;
+void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
+                      const std::string& dir, int factor, bool mip) {
+  if (reusable_field(dir, wanted_field_settings(scene, resolution, o.eval_train_views, o, ""))) return;
   RgbTrainOptions b;
   b.scene = scene;
-  b.scene_options.downscale = downscale;
+  b.scene_options.images_dir = resolution.images;
+  b.scene_options.downscale = resolution.downscale;
   b.scene_options.train_views = o.eval_train_views;
   b.scene_options.crop_to_multiple_of_8 = true;  // the latent fields' views
   b.out = dir;
@@ -194,9 +207,13 @@ void refine_eval_field(const PipelineOptions& o, const std::string& field, const
   ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir, false);
 }
 
-EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const Paths& paths) {
+EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const PipelineScenes& scenes, const Paths& paths) {
   EncoderFinetuneOptions e = o.stage1;
-  e.scenes = o.train_scenes;
+  e.scenes = scenes.train;
+  e.scene_resolutions.clear();
+  if (scenes.any_given(scenes.train)) {
+    for (const auto& s : scenes.train) e.scene_resolutions.push_back(scenes.given.at(s));
+  }
   e.correspondence_files.clear();
   e.autoencoder = o.autoencoder;
   e.encoder.clear();
@@ -216,8 +233,8 @@ bool encoder_finished(const EncoderFinetuneOptions& e) {
   return true;
 }
 
-void ensure_encoder(const PipelineOptions& o, const Paths& paths) {
-  EncoderFinetuneOptions e = encoder_options(o, paths);
+void ensure_encoder(const PipelineOptions& o, const PipelineScenes& scenes, const Paths& paths) {
+  EncoderFinetuneOptions e = encoder_options(o, scenes, paths);
   if (encoder_finished(e)) {
     log_info("reusing Stage I encoder " + e.out);
     return;
@@ -359,7 +376,8 @@ void parse_shard(const std::string& text, PipelineOptions* options) {
 namespace {
 
 // One shard's share of the per-scene steps (see run_pipeline in pipeline.h).
-nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<std::string, int>& downscale) {
+nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes, const Paths& paths) {
+  const auto& resolution = scenes.used;
   const std::string me = "shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
   nlohmann::json done = nlohmann::json::array(), left = nlohmann::json::array();
   int unit = 0;
@@ -376,9 +394,9 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
     }
   };
   const std::string encoder = paths.encoder();
-  const bool encoder_ready = encoder_finished(encoder_options(o, paths));
+  const bool encoder_ready = encoder_finished(encoder_options(o, scenes, paths));
   std::vector<std::string> stock_fields, ft_fields;
-  for (const auto& s : o.train_scenes) {
+  for (const auto& s : scenes.train) {
     stock_fields.push_back(paths.field(s, "stock"));
     ft_fields.push_back(paths.field(s, "ft"));
   }
@@ -386,21 +404,21 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
   const bool decoder_ft_ready = decoder_finished(decoder_options(o, ft_fields, encoder, paths.decoder("ft")));
   const std::string no_encoder = "needs the Stage I encoder (run the unsharded command)";
 
-  for (const auto& s : o.train_scenes) {
+  for (const auto& s : scenes.train) {
     run_unit("field " + paths.field(s, "stock"), [&] {
-      ensure_latent_field(o, s, downscale[s], 0, paths.field(s, "stock"), "");
+      ensure_latent_field(o, s, resolution.at(s), 0, paths.field(s, "stock"), "");
       return std::string();
     });
     run_unit("field " + paths.field(s, "ft"), [&] {
       if (!encoder_ready) return no_encoder;
-      ensure_latent_field(o, s, downscale[s], 0, paths.field(s, "ft"), encoder);
+      ensure_latent_field(o, s, resolution.at(s), 0, paths.field(s, "ft"), encoder);
       return std::string();
     });
   }
-  for (const auto& s : o.eval_scenes) {
+  for (const auto& s : scenes.eval) {
     const std::string stock_field = paths.eval_field(s, "stock"), ft_field = paths.eval_field(s, "ft");
     run_unit("stock rows of " + paths.eval_label(s), [&] {
-      ensure_latent_field(o, s, downscale[s], o.eval_train_views, stock_field, "");
+      ensure_latent_field(o, s, resolution.at(s), o.eval_train_views, stock_field, "");
       ensure_latent_eval(o, stock_field, "", paths.eval(s, "stock"));
       if (o.refine_rows) {
         const std::string refined = paths.eval_field(s, "stock-refined");
@@ -413,7 +431,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
     });
     run_unit("Stage I rows of " + paths.eval_label(s), [&] {
       if (!encoder_ready) return no_encoder;
-      ensure_latent_field(o, s, downscale[s], o.eval_train_views, ft_field, encoder);
+      ensure_latent_field(o, s, resolution.at(s), o.eval_train_views, ft_field, encoder);
       ensure_latent_eval(o, ft_field, "", paths.eval(s, "encoder"));
       if (!decoder_ft_ready) return std::string("the both rows need the Stage III decoder of the Stage I fields");
       ensure_latent_eval(o, ft_field, paths.decoder("ft"), paths.eval(s, "both"));
@@ -429,7 +447,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const Paths& paths, std::map<
       if (b.factor == 1 && !o.rgb_full) continue;
       run_unit(std::string(b.row) + " of " + paths.eval_label(s), [&] {
         const std::string rgb = paths.eval_field(s, b.tag);
-        ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
+        ensure_rgb_field(o, s, resolution.at(s), rgb, b.factor, b.mip);
         if (!reusable_scores((fs::path(rgb) / "metrics.json").string())) evaluate_rgb_run(rgb, rgb_eval_options(o));
         return std::string();
       });
@@ -458,10 +476,10 @@ void require_same_view_images(const Paths& paths) {
 }
 
 // Wall time per stage (stage_times.h), from the records of the finished steps.
-StageTimes stage_times_of(const PipelineOptions& o, const Paths& paths,
+StageTimes stage_times_of(const PipelineOptions& o, const PipelineScenes& scenes, const Paths& paths,
                           const std::map<std::string, std::vector<std::string>>& train_fields) {
   StageTimes times;
-  times.add("Stage I", "encoder, on " + std::to_string(o.train_scenes.size()) + " training scene(s)", 1,
+  times.add("Stage I", "encoder, on " + std::to_string(scenes.train.size()) + " training scene(s)", 1,
             finetune_record_seconds(finetune_record_path(paths.encoder())));
   double fields = 0;
   int count = 0;
@@ -475,7 +493,7 @@ StageTimes stage_times_of(const PipelineOptions& o, const Paths& paths,
   times.add("Stage III", "decoders on those fields (stock and Stage I)", 2,
             finetune_record_seconds(decoder_record_path(paths.decoder("stock"))) +
                 finetune_record_seconds(decoder_record_path(paths.decoder("ft"))));
-  for (const auto& s : o.eval_scenes) {
+  for (const auto& s : scenes.eval) {
     const std::string name = paths.eval_label(s);
     times.add("Stage II", name + ": latent fields (stock and Stage I encoder)", 2,
               field_run_seconds(paths.eval_field(s, "stock")) + field_run_seconds(paths.eval_field(s, "ft")));
@@ -505,25 +523,16 @@ StageTimes stage_times_of(const PipelineOptions& o, const Paths& paths,
 nlohmann::json run_pipeline(const PipelineOptions& o) {
   if (o.train_scenes.empty() || o.eval_scenes.empty()) fail("pipeline: give --train-scenes and --eval-scenes");
   if (o.out.empty()) fail("pipeline: no output folder (-o)");
-  check_no_overlap(o.train_scenes, o.eval_scenes);
-  std::set<std::string> names;
-  for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
-    for (const auto& s : *list) {
-      if (!fs::is_directory(s)) fail(s, "scene folder not found");
-      if (!names.insert(scene_name(s)).second) fail(s, "two scenes share the folder name '" + scene_name(s) + "'");
-    }
-  }
+  // Every scene and its resolution, checked before any stage (this reads each scene's cameras).
+  const PipelineScenes scenes = resolve_pipeline_scenes(o.train_scenes, o.eval_scenes, o.max_side);
+  const auto& resolution = scenes.used;
   const Paths paths{o.out, protocol_suffix(o.eval_train_views)};
   require_same_view_images(paths);
   if (o.shard_count > 1) {
     // Shards share the folder with each other (each artefact is locked by the job writing it) and leave
     // the record, the tables and the report to the unsharded command.
     fs::create_directories(o.out);
-    std::map<std::string, int> downscale;
-    for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
-      for (const auto& s : *list) downscale[s] = downscale_for_max_side(s, "", o.max_side);
-    }
-    return run_shard(o, paths, downscale);
+    return run_shard(o, scenes, paths);
   }
   const auto t0 = std::chrono::steady_clock::now();
   fs::create_directories(o.out);
@@ -541,26 +550,29 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"seed", o.seed},
                            {"eval_train_views", o.eval_train_views},
                            {"view_images", kViewImagesVersion}};
-  for (const auto& s : o.train_scenes) inputs["train_scenes"].push_back(canonical_path(s));
-  for (const auto& s : o.eval_scenes) inputs["eval_scenes"].push_back(canonical_path(s));
+  for (const auto& s : scenes.train) inputs["train_scenes"].push_back(canonical_path(s));
+  for (const auto& s : scenes.eval) inputs["eval_scenes"].push_back(canonical_path(s));
+  // Each scene's resolution: the options given after its folder, and the image folder and downscale used.
+  inputs["scene_resolutions"] = nlohmann::json::object();
+  for (const auto* list : {&scenes.train, &scenes.eval}) {
+    for (const auto& s : *list) {
+      inputs["scene_resolutions"][scene_name(s)] = {{"argument", scenes.argument.at(s)},
+                                                    {"given", scenes.given.at(s).json()},
+                                                    {"used", resolution.at(s).json()}};
+    }
+  }
   nlohmann::json record = run_record(inputs);
   const std::string record_path = paths.output("pipeline", "json");
   write_json_file(record_path, record);
 
-  // Each scene's resolution, probed once (probing reads the scene).
-  std::map<std::string, int> downscale;
-  for (const auto* list : {&o.train_scenes, &o.eval_scenes}) {
-    for (const auto& s : *list) downscale[s] = downscale_for_max_side(s, "", o.max_side);
-  }
-
   // Stage I, then Stage II on the training scenes with both encoders, then Stage III on each set.
-  ensure_encoder(o, paths);
+  ensure_encoder(o, scenes, paths);
   const std::string encoder = paths.encoder();
   std::map<std::string, std::vector<std::string>> train_fields;
-  for (const auto& s : o.train_scenes) {
+  for (const auto& s : scenes.train) {
     for (const auto& [tag, enc] : {std::pair<std::string, std::string>{"stock", ""}, {"ft", encoder}}) {
       const std::string dir = paths.field(s, tag);
-      ensure_latent_field(o, s, downscale[s], 0, dir, enc);  // Stage III learns from every view
+      ensure_latent_field(o, s, resolution.at(s), 0, dir, enc);  // Stage III learns from every view
       train_fields[tag].push_back(dir);
     }
   }
@@ -572,10 +584,10 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       {"stage1", read_json_file(finetune_record_path(encoder))["options"]["scenes"]},
       {"stage3_stock", field_scenes(train_fields["stock"])},
       {"stage3_ft", field_scenes(train_fields["ft"])}};
-  for (auto& [stage, scenes] : trained_on.items()) {
+  for (auto& [stage, used] : trained_on.items()) {
     std::vector<std::string> list;
-    for (const auto& s : scenes) list.push_back(s.get<std::string>());
-    check_no_overlap(list, o.eval_scenes);
+    for (const auto& s : used) list.push_back(s.get<std::string>());
+    check_no_overlap(list, scenes.eval);
   }
   record["trained_on"] = trained_on;
   record["artifacts"] = {{"encoder", encoder},
@@ -592,18 +604,20 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   spec.title = "lrf pipeline: ablation";
   spec.max_image_side = 640;
   nlohmann::json results = nlohmann::json::object();
-  std::map<std::string, std::vector<double>> psnr_by_row;
-  for (const auto& s : o.eval_scenes) {
+  std::vector<std::string> eval_labels;
+  std::string resolutions;  // each evaluation scene's image folder and size, for the report's notes
+  for (const auto& s : scenes.eval) {
+    eval_labels.push_back(paths.eval_label(s));
     const std::string stock_field = paths.eval_field(s, "stock"), ft_field = paths.eval_field(s, "ft");
-    ensure_latent_field(o, s, downscale[s], o.eval_train_views, stock_field, "");
-    ensure_latent_field(o, s, downscale[s], o.eval_train_views, ft_field, encoder);
+    ensure_latent_field(o, s, resolution.at(s), o.eval_train_views, stock_field, "");
+    ensure_latent_field(o, s, resolution.at(s), o.eval_train_views, ft_field, encoder);
     std::map<std::string, nlohmann::json> m;
     std::map<std::string, std::string> image_dirs;
     if (o.rgb_baseline) {
       for (const RgbBaseline& b : rgb_baselines()) {
         if (b.factor == 1 && !o.rgb_full) continue;
         const std::string rgb = paths.eval_field(s, b.tag);
-        ensure_rgb_field(o, s, downscale[s], rgb, b.factor, b.mip);
+        ensure_rgb_field(o, s, resolution.at(s), rgb, b.factor, b.mip);
         const std::string metrics = (fs::path(rgb) / "metrics.json").string();
         auto scores = reusable_scores(metrics);
         m[b.row] = scores ? *scores : evaluate_rgb_run(rgb, rgb_eval_options(o));
@@ -640,7 +654,6 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                       Cell::number_in(r, "lpips"),
                       latent ? Cell::number_in(r, "latent_psnr") : Cell(),
                       latent ? Cell::number_in(r, "roundtrip_psnr") : Cell()});
-      psnr_by_row[row].push_back(r.value("psnr", 0.0));
       results[paths.eval_label(s)][row] = {{"psnr", r.value("psnr", 0.0)},
                                      {"ssim", r.value("ssim", 0.0)},
                                      {"ms_ssim", r.value("ms_ssim", nlohmann::json())},
@@ -649,9 +662,17 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     }
     // Report: every test view, ground truth then each row.
     SceneOptions so;
-    so.downscale = downscale[s];
+    so.images_dir = resolution.at(s).images;
+    so.downscale = resolution.at(s).downscale;
     so.crop_to_multiple_of_8 = true;
     Scene scene = load_scene(s, so);
+    if (!scene.views.empty()) {
+      const Camera& camera = scene.views.front().camera;
+      resolutions += std::string(resolutions.empty() ? "" : "; ") + paths.eval_label(s) + " " +
+                     (so.images_dir.empty() ? "default images" : so.images_dir) + " downscaled " +
+                     std::to_string(so.downscale) + "x to " + std::to_string(camera.width) + "x" +
+                     std::to_string(camera.height);
+    }
     for (int i : scene.test_indices) {
       const View& v = scene.views[static_cast<size_t>(i)];
       ReportView rv;
@@ -673,35 +694,39 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       spec.views.push_back(rv);
     }
   }
-  if (o.eval_scenes.size() > 1) {
-    const double stock_mean = [&] {
-      double sum = 0;
-      for (double p : psnr_by_row["stock"]) sum += p;
-      return sum / psnr_by_row["stock"].size();
-    }();
-    for (const auto& row : ablation_rows()) {
-      if (!psnr_by_row.count(row)) continue;
-      double sum = 0;
-      for (double p : psnr_by_row[row]) sum += p;
-      const double mean = sum / psnr_by_row[row].size();
-      Row mean_row = {"mean", row, Cell(mean), Cell(mean - stock_mean)};
-      mean_row.resize(header.size());  // the other scores are not averaged over scenes
-      rows.push_back(std::move(mean_row));
-    }
+  // The mean over the evaluation scenes of every row (the paper's Table 1), below the per-scene rows,
+  // and in the report as a table of its own.
+  const SceneMean mean = mean_over_scenes(header, rows, eval_labels, ablation_rows());
+  const std::string mean_title = "Mean over " + std::to_string(eval_labels.size()) + " evaluation scene" +
+                                 (eval_labels.size() == 1 ? "" : "s");
+  std::string mean_note;
+  if (!mean.left_out.empty()) {
+    mean_note = mean_title + " leaves out what a scene lacks: ";
+    for (size_t i = 0; i < mean.left_out.size(); ++i) mean_note += (i ? "; " : "") + mean.left_out[i];
+    mean_note += ".";
+    log_info(mean_note);
   }
+  rows.insert(rows.end(), mean.rows.begin(), mean.rows.end());
+  const std::vector<Better> better = {Better::none,   Better::none,  Better::higher, Better::higher, Better::higher,
+                                      Better::higher, Better::lower, Better::lower,  Better::higher, Better::higher};
   write_table_csv(paths.output("ablation", "csv"), header, rows);
-  write_table_markdown(paths.output("ablation", "md"), header, rows);
+  write_file_atomic(paths.output("ablation", "md"), table_markdown(header, rows, paths.output("ablation", "md")) +
+                                                        (mean_note.empty() ? "" : "\n" + mean_note + "\n"));
   spec.summary_header = header;
   spec.summary_rows = rows;
-  spec.summary_better = {Better::none,   Better::none,  Better::higher, Better::higher, Better::higher,
-                         Better::higher, Better::lower, Better::lower,  Better::higher, Better::higher};
+  spec.summary_better = better;
+  ReportTable mean_table{mean_title, {header.begin() + 1, header.end()}, {}, {better.begin() + 1, better.end()}};
+  for (const Row& r : mean.rows) mean_table.rows.push_back(Row(r.begin() + 1, r.end()));
+  spec.tables.push_back(mean_table);
   std::string train_list, eval_list;
-  for (const auto& s : o.train_scenes) train_list += (train_list.empty() ? "" : ", ") + scene_name(s);
-  for (const auto& s : o.eval_scenes) eval_list += (eval_list.empty() ? "" : ", ") + scene_name(s);
+  for (const auto& s : scenes.train) train_list += (train_list.empty() ? "" : ", ") + scenes.argument.at(s);
+  for (const auto& s : scenes.eval) eval_list += (eval_list.empty() ? "" : ", ") + scenes.argument.at(s);
   spec.notes.push_back("Training scenes (Stage I and Stage III): " + train_list + ". Evaluation scenes (unseen by both): " +
-                       eval_list + ". Autoencoder " + o.autoencoder + "; every scene downscaled so its longer side is at "
-                       "most " + std::to_string(o.max_side) + " px; latent fields of " + std::to_string(o.field_iters) +
-                       " iterations.");
+                       eval_list + ". Autoencoder " + o.autoencoder + "; every scene without a --downscale of its own "
+                       "downscaled so its longer side is at most " + std::to_string(o.max_side) + " px; latent fields "
+                       "of " + std::to_string(o.field_iters) + " iterations.");
+  if (!resolutions.empty()) spec.notes.push_back("Evaluated at: " + resolutions + ".");
+  if (!mean_note.empty()) spec.notes.push_back(mean_note);
   if (o.eval_train_views > 0) {
     spec.notes.push_back("Few-shot (" + paths.protocol.substr(1) + " in the scene names): the evaluation scenes' fields "
                          "(latent, refined and RGB) trained on only " + std::to_string(o.eval_train_views) +
@@ -715,13 +740,20 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        "(lrf refine: " + refine_description(o.refine) + "). Image-space baselines: rgb/8 and "
                        "rgb/8-mip = RGB 3DGS and Mip-Splatting trained at latent resolution (the paper's 3DGS/8 and "
                        "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. delta_psnr is against the stock row.");
-  const StageTimes times = stage_times_of(o, paths, train_fields);
+  const StageTimes times = stage_times_of(o, scenes, paths, train_fields);
   const ReportTable stage_times = times.table();
   write_table_csv(paths.output("stages", "csv"), stage_times.header, stage_times.rows);
   write_table_markdown(paths.output("stages", "md"), stage_times.header, stage_times.rows);
   spec.tables.push_back(stage_times);
   write_html_report(paths.output("report", "html"), spec);
   record["results"] = results;
+  nlohmann::json mean_scores = nlohmann::json::object();
+  for (const Row& r : mean.rows) {
+    for (size_t c = 2; c < header.size(); ++c) {
+      mean_scores[r[1].text][header[c]] = r[c].missing() ? nlohmann::json() : nlohmann::json(r[c].number);
+    }
+  }
+  record["mean"] = {{"scenes", eval_labels}, {"scores", mean_scores}, {"left_out", mean.left_out}};
   record["table"] = paths.output("ablation", "md");  // the protocol's own table (ablation-Kviews.md for K views)
   record["stage_seconds"] = times.json();
   record["wall_seconds_this_session"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
