@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "lrf/core/run_info.h"
 #include "test_helpers.h"
 
 namespace {
@@ -70,3 +71,23 @@ TEST(CliUsage, ParseErrorsAreJsonLinesWithLogJson) {
 }
 
 }  // namespace
+
+// A long command runs with OpenMP's passive wait unless the user chose a policy, and records it; a 1-thread
+// run has no partner to wait for and keeps libgomp's default.
+TEST(CliUsage, LongCommandsWaitPassivelyUnlessTheUserChose) {
+  const std::string scene = lrf::test::synthetic_scene({8, "64x48", 3, 800});
+  lrf::test::TempDir dir("openmp_wait");
+  auto policy_of = [&](const std::string& env, const std::string& threads, const std::string& out) {
+    auto r = lrf::test::run_lrf("--threads " + threads + " -q train '" + scene + "' -o '" + (dir / out) +
+                                "' --iters 5");
+    EXPECT_EQ(r.exit_code, 0) << env << r.output;
+    return lrf::read_json_file(dir / (out + "/config.json"))["versions"]["openmp_wait_policy"].get<std::string>();
+  };
+  ::unsetenv("OMP_WAIT_POLICY");
+  ::unsetenv("GOMP_SPINCOUNT");
+  EXPECT_EQ(policy_of("unset", "2", "two"), "passive");
+  EXPECT_EQ(policy_of("unset", "1", "one"), "default");
+  ::setenv("OMP_WAIT_POLICY", "active", 1);
+  EXPECT_EQ(policy_of("active", "2", "chosen"), "active");
+  ::unsetenv("OMP_WAIT_POLICY");
+}

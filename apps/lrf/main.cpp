@@ -12,6 +12,7 @@
 #include "lrf/core/allocator.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/openmp_wait.h"
 #include "lrf/core/precision.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/stop_request.h"
@@ -67,6 +68,21 @@ int parse_error_exit(CLI::App& app, const CLI::ParseError& e, int argc, char** a
 }  // namespace
 
 }  // namespace lrf::cli
+
+namespace {
+
+// The commands whose work takes long enough that starting the program a second time (to set OpenMP's
+// wait policy, openmp_wait.h) costs nothing next to it; --help, scene info and the like are not started again.
+bool runs_long(const CLI::App& app) {
+  static const char* const kLong[] = {"train", "refine", "compare", "pipeline", "finetune-encoder",
+                                      "finetune-decoder", "eval", "render", "serve", "demo"};
+  for (const CLI::App* sub : app.get_subcommands())
+    for (const char* name : kLong)
+      if (sub->get_name() == name) return true;
+  return false;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace lrf;
@@ -125,6 +141,8 @@ int main(int argc, char** argv) {
     return 0;
   }
 
+  // A worker that spins while its partner thread waits for a core multiplied a busy machine's wall time.
+  if (threads != 1 && runs_long(app)) restart_with_passive_openmp_wait(argv);
   set_log_mode(log_json ? LogMode::json : quiet ? LogMode::quiet : LogMode::normal);
   set_thread_count(threads);
   try {

@@ -9,6 +9,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
+#include "lrf/core/openmp_wait.h"
 #include "lrf/core/precision.h"
 #include "lrf/core/threads.h"
 #include "lrf/splat/raster/raster_kernels.h"
@@ -31,6 +32,8 @@ nlohmann::json version_info() {
           {"libtorch", TORCH_VERSION},
           {"opencv", CV_VERSION},
           {"threads", thread_count()},
+          // How idle OpenMP workers waited (lrf's long commands run with "passive"; see openmp_wait.h).
+          {"openmp_wait_policy", openmp_wait_policy()},
           // Pixels composited at a time (8 with AVX2, 4 with SSE2): images do not depend on it, but
           // gradients round differently, so a run reproduces exactly only at the same width.
           {"compositing_lanes", splat::raster_vector_width()},
