@@ -51,6 +51,27 @@ class RgbFrames : public FieldFrames {
   splat::FieldRun run_;
 };
 
+// The frame a latent-space field renders for `camera`: `render_latent` (normalised latents for the latent
+// camera) decoded through `ae`, timed in two parts.
+template <class RenderLatent>
+cv::Mat decoded_frame(const Camera& camera, Autoencoder& ae, const LatentRange& range, RenderLatent render_latent,
+                      FrameTiming* timing) {
+  check_size(camera, 8);
+  apply_thread_count_to_this_thread();
+  torch::NoGradGuard no_grad;
+  const auto t0 = Clock::now();
+  const torch::Tensor zn = render_latent(latent_camera(camera));
+  const double render_ms = ms_since(t0);
+  const auto t1 = Clock::now();
+  cv::Mat frame = to_u8(tensor_to_image(decode_normalised(ae, range, zn)));
+  if (timing) *timing = {render_ms, ms_since(t1)};
+  return frame;
+}
+
+std::string decoded_by(const std::string& decoder) {
+  return decoder.empty() ? "the autoencoder's decoder" : decoder;
+}
+
 class LatentFrames : public FieldFrames {
  public:
   LatentFrames(const std::string& run, const std::string& decoder) : run_(open_latent_run(run)) {
@@ -63,20 +84,11 @@ class LatentFrames : public FieldFrames {
   std::string describe() const override {
     return "latent field (" + run_.autoencoder + ", " + std::to_string(run_.range.channels()) + " channels), " +
            std::to_string(run_.field.size()) + " Gaussians, decoded by " +
-           (decoder_.empty() ? "the autoencoder's decoder" : decoder_);
+           decoded_by(decoder_);
   }
   cv::Mat render(const Camera& camera, FrameTiming* timing) override {
-    check_size(camera, 8);
-    apply_thread_count_to_this_thread();
-    torch::NoGradGuard no_grad;
-    const auto t0 = Clock::now();
-    auto zn = render_latent_at(run_, latent_camera(camera));  // a feature field's features lifted to latents
-    const double render_ms = ms_since(t0);
-    const auto t1 = Clock::now();
-    auto image = decode_normalised(*ae_, run_.range, zn);
-    cv::Mat frame = to_u8(tensor_to_image(image));
-    if (timing) *timing = {render_ms, ms_since(t1)};
-    return frame;
+    // A feature field's features are lifted to latents.
+    return decoded_frame(camera, *ae_, run_.range, [&](const Camera& c) { return render_latent_at(run_, c); }, timing);
   }
 
  private:
@@ -98,20 +110,11 @@ class NerfFrames : public FieldFrames {
   std::string describe() const override {
     return "latent NeRF (" + run_.autoencoder + ", " + std::to_string(run_.range.channels()) + " channels), " +
            std::to_string(run_.field.parameter_count()) + " parameters, decoded by " +
-           (decoder_.empty() ? "the autoencoder's decoder" : decoder_);
+           decoded_by(decoder_);
   }
   cv::Mat render(const Camera& camera, FrameTiming* timing) override {
-    check_size(camera, 8);
-    apply_thread_count_to_this_thread();
-    torch::NoGradGuard no_grad;
-    const auto t0 = Clock::now();
-    auto zn = nerf::render_view(run_.field, latent_camera(camera));
-    const double render_ms = ms_since(t0);
-    const auto t1 = Clock::now();
-    auto image = decode_normalised(*ae_, run_.range, zn);
-    cv::Mat frame = to_u8(tensor_to_image(image));
-    if (timing) *timing = {render_ms, ms_since(t1)};
-    return frame;
+    return decoded_frame(camera, *ae_, run_.range, [&](const Camera& c) { return nerf::render_view(run_.field, c); },
+                         timing);
   }
 
  private:
