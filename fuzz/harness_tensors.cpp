@@ -12,6 +12,7 @@
 #include "lrf/core/safetensors.h"
 #include "lrf/core/torch_zip.h"
 #include "lrf/latent/latent_config.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/splat/run/run_config.h"
 #include "lrf/splat/ply_io.h"
 
@@ -64,7 +65,7 @@ void field_config(const std::string& bytes) {
   }
   // Each reader on its own: a refusal by one must not hide the others.
   try {
-    splat::config_space(j, "fuzz");
+    field_kind_of_config(j, "fuzz");
   } catch (const Error&) {
   }
   try {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "lrf/latent/latent_config.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/scene/raw_scene.h"
 #include "lrf/splat/run/run_config.h"
 #include "test_helpers.h"
@@ -47,7 +48,7 @@ TEST(TransformsJson, ParsesAFrameAndRefusesBadValues) {
 
 TEST(FieldConfig, ParsesWhatTrainWritesAndRefusesBadValues) {
   auto c = lrf::splat::parse_field_config(rgb_config(), "config.json");
-  EXPECT_EQ(c.space, "rgb");
+  EXPECT_EQ(c.kind, lrf::FieldKind::rgb);
   EXPECT_EQ(c.scene.downscale, 2);
   EXPECT_EQ(c.background.size(), 3u);
   auto bad = [](const char* key, nlohmann::json value) {
@@ -62,8 +63,14 @@ TEST(FieldConfig, ParsesWhatTrainWritesAndRefusesBadValues) {
   EXPECT_NE(bad("background", {1e300}).find("finite"), std::string::npos);
   EXPECT_NE(bad("background", nlohmann::json::array()).find("channels"), std::string::npos);
   EXPECT_NE(bad("space", 1).find("space"), std::string::npos);
-  EXPECT_NE(error_of([] { lrf::splat::config_space(nlohmann::json::array(), "config.json"); }).find("object"),
+  EXPECT_NE(bad("space", "latent-nerf").find("not a Gaussian field"), std::string::npos);
+  EXPECT_NE(error_of([] { lrf::field_kind_of_config(nlohmann::json::array(), "config.json"); }).find("object"),
             std::string::npos);
+  EXPECT_NE(error_of([] { lrf::field_kind_of_config({{"space", "lat"}}, "config.json"); }).find("unknown space 'lat'"),
+            std::string::npos);
+  EXPECT_EQ(lrf::field_kind_of_config({{"scene", "s"}}, "config.json"), lrf::FieldKind::rgb);  // before "space" existed
+  for (auto k : {lrf::FieldKind::rgb, lrf::FieldKind::latent, lrf::FieldKind::latent_nerf})
+    EXPECT_EQ(lrf::field_kind_of_config({{"space", lrf::field_kind_name(k)}}, "c"), k);
 }
 
 TEST(FieldConfig, LatentConfigNeedsMatchingChannels) {

@@ -287,7 +287,7 @@ TEST_F(FeatureField, RenderCommandWritesLatentsOfTheAutoencodersChannels) {
 // Videos and the viewer take a feature field too: its frames are its features lifted to the latent, decoded.
 TEST_F(FeatureField, FramesLiftTheFeaturesBeforeDecoding) {
   auto frames = lrf::FieldFrames::open(*dir_ / "field");
-  EXPECT_EQ(frames->space(), "latent");
+  EXPECT_EQ(frames->kind(), lrf::FieldKind::latent);
   const lrf::Camera& camera = frames->scene().views.at(0).camera;
   const cv::Mat frame = frames->render(camera);
   EXPECT_EQ(frame.size(), cv::Size(camera.width, camera.height));

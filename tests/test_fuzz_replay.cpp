@@ -60,7 +60,7 @@ TEST(FuzzReplay, TensorFormatSeedsAreAccepted) {
   EXPECT_EQ(lrf::parse_safetensors(seed("safetensors/dtypes.safetensors"), "s").size(), 5u);
   EXPECT_EQ(lrf::splat::parse_ply(seed("ply/c3_sh1.ply"), "p", 3).size(), 3);
   EXPECT_EQ(lrf::splat::parse_ply(seed("ply/c4_sh0.ply"), "p", 4).max_sh_degree, 0);
-  EXPECT_EQ(lrf::splat::parse_field_config(nlohmann::json::parse(seed("field_config/rgb.json")), "c").space, "rgb");
+  EXPECT_EQ(lrf::splat::parse_field_config(nlohmann::json::parse(seed("field_config/rgb.json")), "c").kind, lrf::FieldKind::rgb);
   EXPECT_EQ(lrf::parse_latent_config(nlohmann::json::parse(seed("field_config/latent.json")), "c").range.channels(), 4);
   EXPECT_EQ(lrf::parse_latent_config(nlohmann::json::parse(seed("field_config/feature.json")), "c").feature_dim, 2);
   EXPECT_NE(lrf::test::error_of([&] {

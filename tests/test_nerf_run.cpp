@@ -19,6 +19,7 @@
 #include "lrf/frames/field_frames.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/viewer/scene_json.h"
 #include "test_helpers.h"
 
@@ -191,7 +192,7 @@ TEST_F(LatentNerfRun, ShortFitLowersTheLossAndRendersTheTestViews) {
   for (const char* f : {"config.json", "field.safetensors", "checkpoint.safetensors", "train_log.csv"})
     EXPECT_TRUE(fs::exists(fs::path(out) / f)) << f;
   EXPECT_TRUE(nerf_run_finished(out));
-  EXPECT_TRUE(is_nerf_run(out));
+  EXPECT_EQ(lrf::field_kind_of(out), lrf::FieldKind::latent_nerf);
   const double start = mean_logged_loss(out + "/train_log.csv", 0, 2), end = mean_logged_loss(out + "/train_log.csv", 13, 15);
   std::printf("training loss %.5f -> %.5f\n", start, end);
   EXPECT_LT(end, 0.8 * start);
@@ -282,7 +283,7 @@ TEST_F(LatentNerfRun, CliTrainsRendersEvaluatesAndRefusesBadInput) {
 TEST_F(LatentNerfRun, FramesMakeAPathVideoAndTheViewersScene) {
   const std::string out = *dir_ / "fit";
   auto frames = lrf::FieldFrames::open(out);
-  EXPECT_EQ(frames->space(), "latent-nerf");
+  EXPECT_EQ(frames->kind(), lrf::FieldKind::latent_nerf);
   EXPECT_TRUE(frames->latent());
   EXPECT_EQ(frames->size_multiple(), 8);
   EXPECT_NE(frames->describe().find("latent NeRF"), std::string::npos) << frames->describe();

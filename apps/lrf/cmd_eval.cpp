@@ -10,6 +10,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/rgb/rgb_eval.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/splat/run/render_size.h"
 #include "scene_override_option.h"
 
@@ -42,8 +43,9 @@ int run_eval_latent(const EvalOptions& o, bool nerf) {
 int run_eval(const EvalOptions& o) {
   using namespace lrf;
   splat::check_render_options(o.scale, 0, 0);
-  if (nerf::is_nerf_run(o.out)) return run_eval_latent(o, true);
-  if (is_latent_run(o.out)) return run_eval_latent(o, false);
+  const auto kind = field_kind_of(o.out);
+  if (kind == FieldKind::latent_nerf) return run_eval_latent(o, true);
+  if (kind == FieldKind::latent) return run_eval_latent(o, false);
   if (!o.decoder.empty()) fail_usage("--decoder applies to latent fields and latent NeRFs");
   // The same scoring as lrf compare's RGB rows: one metrics.json, whichever command wrote it.
   RgbEvalOptions re;

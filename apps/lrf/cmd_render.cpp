@@ -9,6 +9,7 @@
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/camera_path/camera_path.h"
 #include "lrf/frames/field_frames.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/video/path_video.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/latent/latent_field.h"
@@ -110,8 +111,9 @@ int run_render(const RenderOptions& o) {
   if (!o.path.empty()) return run_render_path(o);
   if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given)
     fail_usage("--video, --frames-dir, --frames and --fps go with --path");
-  const bool nerf_field = nerf::is_nerf_run(o.out);
-  const bool latent = !nerf_field && is_latent_run(o.out);
+  const auto kind = field_kind_of(o.out);
+  const bool nerf_field = kind == FieldKind::latent_nerf;
+  const bool latent = kind == FieldKind::latent;
   LatentRun lrun;
   nerf::NerfRun nrun;
   FieldRun run;

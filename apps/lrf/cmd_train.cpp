@@ -12,6 +12,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/scene/scene.h"
 #include "lrf/rgb/rgb_train_run.h"
 #include "lrf/splat/run/run_config.h"
@@ -167,15 +168,6 @@ lrf::RgbTrainOptions rgb_options(const TrainOptions& o, const lrf::InitPointsOpt
   return r;
 }
 
-// Whether OUT holds an RGB field that `lrf train --resume` continues: one of lrf train's, or an RGB row of
-// lrf compare or lrf pipeline (trained by the same job, so recorded alike).
-bool holds_rgb_run(const std::string& out) {
-  const std::string path = (std::filesystem::path(out) / "config.json").string();
-  if (!std::filesystem::exists(path)) return false;
-  const nlohmann::json config = lrf::read_json_file(path);
-  return !config.contains("refine") && lrf::splat::config_space(config, path) == "rgb";
-}
-
 // --resume of an RGB field: its recorded options, except --iters and --checkpoint-every when given, and
 // --cache-dir (where triangulated points are cached).
 int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
@@ -202,7 +194,8 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
   try {
     const auto& j = stored.at("options");
     o.scene = j.at("scene").get<std::string>();
-    o.space = stored.value("space", j.value("space", std::string("rgb")));
+    const lrf::FieldKind kind = lrf::field_kind_of_config(stored, path);
+    o.space = lrf::field_kind_name(kind);
     o.scene_options.images_dir = j.at("images").get<std::string>();
     o.scene_options.downscale = j.at("downscale").get<int>();
     o.scene_options.test_every = j.at("test_every").get<int>();
@@ -217,7 +210,7 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
     require_recorded_preset(given.preset, preset_given, o.preset, path);
     if (!iters_given) o.iters = j.at("iters").get<int64_t>();
     if (!checkpoint_given) o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
-    if (o.space == "latent") {
+    if (kind == lrf::FieldKind::latent) {
       o.autoencoder = j.at("autoencoder").get<std::string>();
       o.encoder = j.at("encoder").get<std::string>();
       o.init = j.at("init").get<std::string>();
@@ -248,16 +241,18 @@ int run_train(const TrainOptions& o) {
   InitPointsOptions points = o.init_points;
   if (points.cache_dir.empty()) points.cache_dir = o.cache_dir;  // triangulated points live beside the latents
   check_init_points_mode(points.mode);
-  if (o.rgb_guide != 0 && o.space != "latent") fail_usage("--rgb-guide applies to --space latent");
-  if (o.inria_rates && o.space != "latent") fail_usage("--inria-rates applies to --space latent");
+  const auto named = field_kind_named(o.space);
+  if (!named) fail_usage("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
+  const FieldKind kind = *named;
+  if (o.rgb_guide != 0 && kind != FieldKind::latent) fail_usage("--rgb-guide applies to --space latent");
+  if (o.inria_rates && kind != FieldKind::latent) fail_usage("--inria-rates applies to --space latent");
   if (o.coarse_factor < 1) fail_usage("--coarse-factor must be at least 1");
   if (o.coarse_until < -1) fail_usage("--coarse-until must be a step (or -1: where densification ends)");
-  if ((o.coarse_factor != 1 || o.coarse_until != -1) && o.space != "rgb")
+  if ((o.coarse_factor != 1 || o.coarse_until != -1) && kind != FieldKind::rgb)
     fail_usage("--coarse-factor and --coarse-until apply to --space rgb");
-  if (o.space == "latent-nerf") return run_train_nerf(o, points);
+  if (kind == FieldKind::latent_nerf) return run_train_nerf(o, points);
   if (o.nerf_option_set) fail_usage("--rays, --samples and --hash-log2 apply to --space latent-nerf");
-  if (o.space == "latent") return run_train_latent(o, points);
-  if (o.space != "rgb") fail_usage("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
+  if (kind == FieldKind::latent) return run_train_latent(o, points);
   if (o.feature_dim != 0) fail_usage("--feature-dim applies to --space latent (a feature field lifted to the latent)");
   train_rgb_field(rgb_options(o, points));
   return 0;
@@ -362,9 +357,11 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
     // `lrf train OUT --resume`: the recorded scene is used anyway, so the folder may stand in its place.
     if (o->out.empty()) o->out = o->scene;
     const bool preset_given = preset->count() > 0;
-    if (lrf::nerf::is_nerf_run(o->out))
+    // An RGB field of lrf train, compare or pipeline (one job trains them all, so they are recorded alike).
+    const auto kind = lrf::field_kind_of(o->out);
+    if (kind == lrf::FieldKind::latent_nerf)
       return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
-    if (holds_rgb_run(o->out)) return resume_train_rgb(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
+    if (kind == lrf::FieldKind::rgb) return resume_train_rgb(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
     return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0, preset_given));
   });
 });

@@ -18,6 +18,7 @@
 #include "lrf/finetune/adam_checkpoint.h"
 #include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/finetune_output.h"
+#include "lrf/run/field_kind.h"
 
 namespace fs = std::filesystem;
 
@@ -35,7 +36,7 @@ void build_dataset(const DecoderFinetuneOptions& o, std::vector<Sample>* train, 
   const std::string identity = autoencoder_identity(o.autoencoder, o.encoder);
   torch::NoGradGuard no_grad;
   for (const auto& dir : o.fields) {
-    if (!is_latent_run(dir)) fail(dir, "not a latent field (make one with `lrf train --space latent`)");
+    if (field_kind_of(dir) != FieldKind::latent) fail(dir, "not a latent field (make one with `lrf train --space latent`)");
     LatentRun run = open_latent_run(dir);
     const std::string field_identity = autoencoder_identity(run.autoencoder, run.encoder);
     if (field_identity != identity) {

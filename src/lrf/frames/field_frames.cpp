@@ -29,7 +29,7 @@ void check_size(const Camera& camera, int multiple) {
 class RgbFrames : public FieldFrames {
  public:
   explicit RgbFrames(const std::string& run) : run_(splat::open_field_run(run)) {}
-  std::string space() const override { return "rgb"; }
+  FieldKind kind() const override { return FieldKind::rgb; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 1; }
   std::string describe() const override {
@@ -78,7 +78,7 @@ class LatentFrames : public FieldFrames {
     decoder_ = decoder.empty() ? run_.decoder : decoder;
     ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
   }
-  std::string space() const override { return "latent"; }
+  FieldKind kind() const override { return FieldKind::latent; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 8; }
   std::string describe() const override {
@@ -104,7 +104,7 @@ class NerfFrames : public FieldFrames {
   NerfFrames(const std::string& run, const std::string& decoder) : run_(nerf::open_nerf_run(run)), decoder_(decoder) {
     ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
   }
-  std::string space() const override { return "latent-nerf"; }
+  FieldKind kind() const override { return FieldKind::latent_nerf; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 8; }
   std::string describe() const override {
@@ -126,8 +126,9 @@ class NerfFrames : public FieldFrames {
 }  // namespace
 
 std::unique_ptr<FieldFrames> FieldFrames::open(const std::string& run, const std::string& decoder) {
-  if (nerf::is_nerf_run(run)) return std::make_unique<NerfFrames>(run, decoder);
-  if (is_latent_run(run)) return std::make_unique<LatentFrames>(run, decoder);
+  const auto kind = field_kind_of(run);
+  if (kind == FieldKind::latent_nerf) return std::make_unique<NerfFrames>(run, decoder);
+  if (kind == FieldKind::latent) return std::make_unique<LatentFrames>(run, decoder);
   if (!decoder.empty()) fail(run, "--decoder applies to latent fields; this is an RGB field");
   return std::make_unique<RgbFrames>(run);
 }

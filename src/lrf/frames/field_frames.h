@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 
+#include "lrf/run/field_kind.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf {
@@ -26,10 +27,9 @@ class FieldFrames {
   static std::unique_ptr<FieldFrames> open(const std::string& run, const std::string& decoder = "");
   virtual ~FieldFrames() = default;
 
-  // The run's "space": rgb, latent or latent-nerf.
-  virtual std::string space() const = 0;
-  // Frames are decoded from rendered latents (every space but rgb).
-  bool latent() const { return space() != "rgb"; }
+  virtual FieldKind kind() const = 0;
+  // Frames are decoded from rendered latents (every kind but rgb).
+  bool latent() const { return kind() != FieldKind::rgb; }
   // The scene at the field's training resolution (latent fields: cropped to multiples of 8).
   virtual const Scene& scene() const = 0;
   // Frame sizes must be multiples of this (8 for latent fields: the decoder upsamples by 8).

@@ -8,7 +8,7 @@ namespace lrf {
 LatentConfig parse_latent_config(const nlohmann::json& c, const std::string& path) {
   LatentConfig l;
   l.field = splat::parse_field_config(c, path);
-  if (l.field.space != "latent") fail(path, "not a latent field");
+  if (l.field.kind != FieldKind::latent) fail(path, "not a latent field");
   try {
     l.autoencoder = c.at("autoencoder").get<std::string>();
     l.encoder = c.value("encoder", std::string());

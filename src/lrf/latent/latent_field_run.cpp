@@ -18,12 +18,6 @@ namespace fs = std::filesystem;
 
 namespace lrf {
 
-bool is_latent_run(const std::string& out) {
-  const std::string path = (fs::path(out) / "config.json").string();
-  if (!fs::exists(path)) return false;
-  return splat::config_space(read_json_file(path), path) == "latent";
-}
-
 LatentRun open_latent_run(const std::string& out) {
   LatentRun run;
   run.out = out;

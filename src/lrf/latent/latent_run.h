@@ -75,7 +75,6 @@ struct LatentRun {
 // Opens OUT; throws lrf::Error naming the file when it is not a finished latent run, or when the scene
 // or the autoencoder's files changed since training (the field would not match them).
 LatentRun open_latent_run(const std::string& out);
-bool is_latent_run(const std::string& out);
 
 // Renders view i's normalised latent [C, h, w] (latent resolution of the training camera); a feature
 // field's rendered features are lifted to the latent channels first.

@@ -12,6 +12,7 @@
 #include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"
 
@@ -87,7 +88,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
 
   auto config = run_record(options_json(o));
   config.update(scene_config(o.scene, so, scene, o.out));
-  config["space"] = "latent";
+  config["space"] = field_kind_name(FieldKind::latent);
   config["sh_degree"] = o.sh_degree;
   config["mip"] = false;
   config["background"] = std::vector<float>(static_cast<size_t>(feature_dim > 0 ? feature_dim : channels), 0.0f);

@@ -11,19 +11,13 @@
 #include "lrf/latent/latent_scoring.h"
 #include "lrf/latent/trained_run_checks.h"
 #include "lrf/nerf/nerf_render.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/run/run_config.h"
 
 namespace fs = std::filesystem;
 
 namespace lrf::nerf {
-
-bool is_nerf_run(const std::string& out) {
-  const fs::path config = fs::path(out) / "config.json";
-  if (!fs::exists(config)) return false;
-  const nlohmann::json c = read_json_file(config.string());
-  return c.is_object() && c.contains("space") && c["space"] == "latent-nerf";
-}
 
 bool nerf_run_finished(const std::string& out) {
   const fs::path config = fs::path(out) / "config.json";
@@ -37,7 +31,7 @@ NerfRun open_nerf_run(const std::string& out) {
   const std::string config_path = (fs::path(out) / "config.json").string();
   if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
   run.config = read_json_file(config_path);
-  if (!run.config.is_object() || run.config.value("space", std::string()) != "latent-nerf")
+  if (field_kind_of_config(run.config, config_path) != FieldKind::latent_nerf)
     fail(config_path, "not a latent NeRF run (lrf train --space latent-nerf)");
   std::string identity;
   std::vector<int> resolution;

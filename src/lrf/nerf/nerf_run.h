@@ -51,8 +51,6 @@ LatentNerfOptions recorded_nerf_options(const std::string& out);
 
 std::string nerf_field_path(const std::string& out);
 std::string nerf_checkpoint_path(const std::string& out);
-// OUT's config.json says it is a latent NeRF.
-bool is_nerf_run(const std::string& out);
 // It trained to its end: config.json has its "result" and the field exists.
 bool nerf_run_finished(const std::string& out);
 

@@ -19,6 +19,7 @@
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"
 
@@ -145,7 +146,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
 
   auto config = run_record(options_json(o));
   config.update(splat::scene_config(o.scene, encoded.options, scene, o.out));
-  config["space"] = "latent-nerf";
+  config["space"] = field_kind_name(FieldKind::latent_nerf);
   config["background"] = spec.background;
   config["autoencoder"] = o.autoencoder;
   config["encoder"] = o.encoder;
@@ -234,7 +235,7 @@ LatentNerfOptions recorded_nerf_options(const std::string& out) {
   const std::string path = (fs::path(out) / "config.json").string();
   if (!fs::exists(path)) fail(path, "not found: nothing to resume in " + out);
   const nlohmann::json config = read_json_file(path);
-  if (config.value("space", std::string()) != "latent-nerf") fail(path, "not a latent NeRF run");
+  if (field_kind_of_config(config, path) != FieldKind::latent_nerf) fail(path, "not a latent NeRF run");
   LatentNerfOptions o;
   try {
     const auto& j = config.at("options");

@@ -11,6 +11,7 @@
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
 #include "lrf/rgb/rgb_field.h"
+#include "lrf/run/field_kind.h"
 #include "lrf/splat/run/run_config.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"
@@ -35,7 +36,7 @@ void check_options(const RgbTrainOptions& o) {
 // finished fields (compare, pipeline) read.
 nlohmann::json options_json(const RgbTrainOptions& o) {
   const SceneOptions& so = o.scene_options;
-  return {{"scene", o.scene}, {"space", "rgb"}, {"out", o.out}, {"images", so.images_dir},
+  return {{"scene", o.scene}, {"space", field_kind_name(FieldKind::rgb)}, {"out", o.out}, {"images", so.images_dir},
           {"downscale", so.downscale}, {"test_every", so.test_every}, {"train_views", so.train_views},
           {"test_list", so.test_list}, {"format", so.format}, {"crop8", so.crop_to_multiple_of_8},
           {"factor", o.factor}, {"iters", o.iters}, {"sh_degree", o.sh_degree}, {"mip", o.mip}, {"seed", o.seed},
@@ -98,7 +99,7 @@ RgbTrainResult train_rgb_field(const RgbTrainOptions& o) {
   // config.json first: a folder being trained already says what it is.
   auto config = run_record(options_json(o));
   config.update(scene_config(o.scene, so, scene, o.out));
-  config["space"] = "rgb";
+  config["space"] = field_kind_name(FieldKind::rgb);
   config["sh_degree"] = o.sh_degree;
   config["mip"] = o.mip;
   config["background"] = {bg, bg, bg};
@@ -141,7 +142,7 @@ RgbTrainOptions recorded_rgb_options(const std::string& out) {
   const std::string path = (fs::path(out) / "config.json").string();
   if (!fs::exists(path)) fail(path, "not found: is " + out + " a folder made by 'lrf train'?");
   const nlohmann::json stored = read_json_file(path);
-  if (splat::config_space(stored, path) != "rgb") fail(path, "not an RGB field");
+  if (field_kind_of_config(stored, path) != FieldKind::rgb) fail(path, "not an RGB field");
   RgbTrainOptions o;
   o.out = out;
   try {

@@ -48,7 +48,7 @@ nlohmann::json scene_json(const FieldFrames& frames, const ViewLimits& limits) {
                      {"height", c.height}, {"fx", c.fx}, {"fy", c.fy}, {"cx", c.cx}, {"cy", c.cy}, {"R", R},
                      {"t", vec_json(c.t)}});
   }
-  return nlohmann::json{{"space", frames.space()}, {"description", frames.describe()},
+  return nlohmann::json{{"space", field_kind_name(frames.kind())}, {"description", frames.describe()},
           {"size_multiple", limits.size_multiple}, {"max_side", limits.max_side}, {"center", vec_json(limits.center)},
           {"radius", limits.radius}, {"target", vec_json(target)}, {"target_source", source}, {"up", vec_json(up)},
           {"views", views}};

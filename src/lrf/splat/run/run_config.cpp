@@ -22,16 +22,6 @@ int bounded_int(const nlohmann::json& c, const char* key, const std::string& pat
 
 }  // namespace
 
-std::string config_space(const nlohmann::json& c, const std::string& path) {
-  if (!c.is_object()) fail(path, "not a JSON object: is it the config.json of 'lrf train'?");
-  if (!c.contains("space")) return "rgb";
-  if (!c["space"].is_string()) fail(path, "\"space\" is not a string");
-  std::string space = c["space"].get<std::string>();
-  if (space != "rgb" && space != "latent" && space != "latent-nerf")
-    fail(path, "unknown space '" + space + "' (rgb, latent or latent-nerf)");
-  return space;
-}
-
 SceneOptions scene_options_from_config(const nlohmann::json& c, const std::string& path) {
   if (!c.is_object()) fail(path, "not a JSON object: is it the config.json of 'lrf train'?");
   SceneOptions o;
@@ -51,12 +41,12 @@ SceneOptions scene_options_from_config(const nlohmann::json& c, const std::strin
 
 FieldConfig parse_field_config(const nlohmann::json& c, const std::string& path) {
   FieldConfig f;
-  f.space = config_space(c, path);
-  if (f.space == "latent-nerf") fail(path, "a latent NeRF (lrf train --space latent-nerf), not a Gaussian field");
+  f.kind = field_kind_of_config(c, path);
+  if (f.kind == FieldKind::latent_nerf) fail(path, "a latent NeRF (lrf train --space latent-nerf), not a Gaussian field");
   try {
     f.scene_root = c.at("scene").get<std::string>();
     f.sh_degree = bounded_int(c, "sh_degree", path, 0, 3);
-    f.mip = f.space == "rgb" ? c.at("mip").get<bool>() : false;  // latent fields are rendered without it
+    f.mip = f.kind == FieldKind::rgb ? c.at("mip").get<bool>() : false;  // latent fields are rendered without it
     f.background = c.at("background").get<std::vector<float>>();
   } catch (const nlohmann::json::exception& e) {
     fail(path, std::string("missing or bad field settings: ") + e.what());

@@ -8,11 +8,12 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/scene/scene.h"
+#include "lrf/run/field_kind.h"
 
 namespace lrf::splat {
 
 struct FieldConfig {
-  std::string space;       // "rgb" or "latent"
+  FieldKind kind = FieldKind::rgb;  // rgb or latent (a latent NeRF is not a Gaussian field)
   std::string scene_root;  // the scene it was trained on
   SceneOptions scene;      // how that scene was loaded
   int sh_degree = 0;
@@ -20,8 +21,6 @@ struct FieldConfig {
   std::vector<float> background;  // one value per channel
 };
 
-// "rgb" (also when absent, as in runs older than Stage II), "latent" or "latent-nerf" (nerf/nerf_run.h).
-std::string config_space(const nlohmann::json& config, const std::string& config_path);
 SceneOptions scene_options_from_config(const nlohmann::json& config, const std::string& config_path);
 // The render settings and scene of any Gaussian field's config.json (RGB or latent; a latent NeRF is refused).
 FieldConfig parse_field_config(const nlohmann::json& config, const std::string& config_path);

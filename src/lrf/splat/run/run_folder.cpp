@@ -42,7 +42,7 @@ FieldRun open_field_run(const std::string& out) {
   if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
   run.config = read_json_file(config_path);
   const FieldConfig c = parse_field_config(run.config, config_path);
-  if (c.space != "rgb") fail(config_path, "space '" + c.space + "' cannot be rendered as RGB by this command yet");
+  if (c.kind != FieldKind::rgb) fail(config_path, "space '" + field_kind_name(c.kind) + "' cannot be rendered as RGB by this command yet");
   run.render.sh_degree = c.sh_degree;
   run.render.mip = c.mip;
   run.render.background = torch::tensor(c.background);
