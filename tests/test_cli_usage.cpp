@@ -1,6 +1,8 @@
 // The command line's own errors: one exit-status scheme (0 done, 1 failed, 2 usage error), a mistyped
 // subcommand named with the closest one, --threads validated, and --log-json honoured by parse errors too.
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -90,4 +92,23 @@ TEST(CliUsage, LongCommandsWaitPassivelyUnlessTheUserChose) {
   ::setenv("OMP_WAIT_POLICY", "active", 1);
   EXPECT_EQ(policy_of("active", "2", "chosen"), "active");
   ::unsetenv("OMP_WAIT_POLICY");
+}
+
+// Training length has one name, --steps (--field-steps in pipeline and demo); the older --iters spellings
+// still set the same option.
+TEST(CliUsage, StepsHaveOneNameAndTheOldSpellingsAreAliases) {
+  const std::string scene = lrf::test::synthetic_scene();
+  lrf::test::TempDir dir("steps_alias");
+  for (const char* name : {"--steps", "--iters"}) {
+    const auto t = lrf::test::run_lrf("train " + scene + " -o " + dir / "out" + " " + name + " 0");
+    EXPECT_EQ(t.exit_code, 2) << name << "\n" << t.output;
+    EXPECT_NE(t.output.find("--steps must be at least 1"), std::string::npos) << name << "\n" << t.output;
+  }
+  // Each command's help names the option and its alias together.
+  for (const auto& [cmd, names] : std::vector<std::pair<std::string, std::string>>{
+           {"train", "--steps,--iters"}, {"compare", "--steps,--iters"}, {"compare", "--nerf-steps,--nerf-iters"},
+           {"pipeline", "--field-steps,--field-iters"}, {"demo", "--field-steps,--iters"}}) {
+    const auto help = lrf::test::run_lrf(cmd + " --help");
+    EXPECT_NE(help.output.find(names), std::string::npos) << cmd << " " << names << "\n" << help.output;
+  }
 }

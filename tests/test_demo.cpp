@@ -15,7 +15,7 @@ namespace {
 
 std::string toy_demo(const std::string& out) {
   return "--threads 2 demo -o " + out + " --autoencoder " + lrf::test::shared_dir() +
-         "/models/taef2 --views 8 --size 64x48 --iters 30 --stage1-steps 2 --stage3-steps 2 --refine-steps 2 "
+         "/models/taef2 --views 8 --size 64x48 --field-steps 30 --stage1-steps 2 --stage3-steps 2 --refine-steps 2 "
          "--video-frames 3";
 }
 

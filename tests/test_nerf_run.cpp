@@ -336,7 +336,7 @@ TEST_F(LatentNerfRun, CompareHasALatentNerfRow) {
   EXPECT_EQ(fs::last_write_time(*dir_ / "cmp/latent-nerf/field.safetensors"), stamp);
   // ...but not for another step count.
   o.nerf_iters = 12;
-  EXPECT_NE(lrf::test::error_of([&] { lrf::run_compare(o); }).find("--nerf-iters"), std::string::npos);
+  EXPECT_NE(lrf::test::error_of([&] { lrf::run_compare(o); }).find("--nerf-steps"), std::string::npos);
 }
 
 }  // namespace

@@ -31,15 +31,15 @@ TEST(Presets, EveryCommandHasQuickDefaultAndPaperAndDefaultChangesNothing) {
 
 TEST(Presets, QuickAndPaperHoldTheDocumentedValues) {
   const auto& quick = lrf::find_preset(lrf::train_presets(), "quick");
-  ASSERT_NE(setting_of(quick, "--iters"), nullptr);
-  EXPECT_EQ(setting_of(quick, "--iters")->value, "1500");
+  ASSERT_NE(setting_of(quick, "--steps"), nullptr);
+  EXPECT_EQ(setting_of(quick, "--steps")->value, "1500");
   ASSERT_NE(setting_of(quick, "--downscale"), nullptr);
   EXPECT_EQ(setting_of(quick, "--downscale")->value, "2");
   const auto& paper = lrf::find_preset(lrf::train_presets(), "paper");
-  ASSERT_NE(setting_of(paper, "--iters"), nullptr);
-  EXPECT_EQ(setting_of(paper, "--iters")->value, "30000");
-  EXPECT_EQ(setting_of(lrf::find_preset(lrf::compare_presets(), "paper"), "--iters")->value, "30000");
-  EXPECT_EQ(setting_of(lrf::find_preset(lrf::pipeline_presets(), "paper"), "--field-iters")->value, "30000");
+  ASSERT_NE(setting_of(paper, "--steps"), nullptr);
+  EXPECT_EQ(setting_of(paper, "--steps")->value, "30000");
+  EXPECT_EQ(setting_of(lrf::find_preset(lrf::compare_presets(), "paper"), "--steps")->value, "30000");
+  EXPECT_EQ(setting_of(lrf::find_preset(lrf::pipeline_presets(), "paper"), "--field-steps")->value, "30000");
   EXPECT_EQ(setting_of(lrf::find_preset(lrf::compare_presets(), "quick"), "--refine-steps")->value, "200");
   EXPECT_EQ(setting_of(lrf::find_preset(lrf::pipeline_presets(), "quick"), "--stage1-steps")->value, "40");
 }
@@ -77,7 +77,7 @@ TEST(Presets, HelpListsEverySettingOfTheTable) {
 TEST(Presets, TrainTakesThePresetsValuesUnlessGivenAndResumeKeepsThePreset) {
   lrf::test::TempDir tmp("preset_train");
   const std::string scene = lrf::test::synthetic_scene({8, "128x96", 3, 800});  // halved: lrf's 32-pixel minimum
-  // --iters given: it wins; --downscale not given: the quick preset's 2.
+  // --iters (the alias of --steps) given: it wins; --downscale not given: the quick preset's 2.
   const std::string out = tmp / "quick";
   auto r = run_lrf("--threads 2 train '" + scene + "' --preset quick --iters 30 --checkpoint-every 10 -o '" + out + "'");
   ASSERT_EQ(r.exit_code, 0) << r.output;

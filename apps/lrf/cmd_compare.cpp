@@ -35,11 +35,11 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   cmd->add_option("--encoder", o->encoder, "Fine-tuned encoder weights for the latent field (Stage I)");
   cmd->add_option("--decoder", o->decoder,
                   "Decoder weights to decode the latent field with, and to refine it through (Stage III)");
-  cmd->add_option("--iters", o->iters, "Training steps of every method")->capture_default_str();
-  cmd->add_option("--latent-iters", o->latent_iters, "Training steps of the latent field (0 = --iters)")->capture_default_str();
-  cmd->add_option("--nerf-iters", o->nerf_iters,
+  cmd->add_option("--steps,--iters", o->iters, "Training steps of every method")->capture_default_str();
+  cmd->add_option("--latent-steps,--latent-iters", o->latent_iters, "Training steps of the latent field (0 = --steps)")->capture_default_str();
+  cmd->add_option("--nerf-steps,--nerf-iters", o->nerf_iters,
                   "Training steps of the latent-nerf method (0 = its default, " +
-                      std::to_string(lrf::nerf::kDefaultNerfIters) + "; --iters counts Gaussian fields' steps)")
+                      std::to_string(lrf::nerf::kDefaultNerfIters) + "; --steps counts Gaussian fields' steps)")
       ->capture_default_str();
   cmd->add_option("--latent-sh-degree", o->latent_sh_degree, "SH degree of the latent field")->capture_default_str();
   cmd->add_option("--methods", o->methods,

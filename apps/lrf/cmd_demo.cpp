@@ -18,7 +18,7 @@ lrf::cli::CommandRegistration reg(1, [](CLI::App& root) {
   demo->add_option("--autoencoder", o->autoencoder, "Autoencoder of the latent fields")->capture_default_str();
   demo->add_option("--views", o->views, "Views per synthetic scene")->capture_default_str();
   demo->add_option("--size", o->size, "Size of the synthetic views, WxH (latent fields are 8x smaller)")->capture_default_str();
-  demo->add_option("--iters", o->field_iters, "Training steps per field (latent fields and RGB baselines)")
+  demo->add_option("--field-steps,--iters", o->field_iters, "Training steps per field (latent fields and RGB baselines)")
       ->capture_default_str();
   demo->add_option("--stage1-steps", o->stage1_steps, "Stage I (encoder fine-tuning) steps")->capture_default_str();
   demo->add_option("--stage3-steps", o->stage3_steps, "Stage III (decoder fine-tuning) steps")->capture_default_str();

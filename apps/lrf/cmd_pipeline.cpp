@@ -40,7 +40,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
                   "Downscale each scene's images by the smallest integer factor bringing the longer side to at most "
                   "this many pixels (scenes given a :--downscale=N of their own use theirs)")
       ->capture_default_str();
-  cmd->add_option("--field-iters", o->field_iters, "Iterations of every latent field and of the RGB baselines")
+  cmd->add_option("--field-steps,--field-iters", o->field_iters, "Training steps of every latent field and of the RGB baselines")
       ->capture_default_str();
   cmd->add_option("--stage1-steps", o->stage1.steps, "Stage I steps")->capture_default_str();
   cmd->add_option("--stage1-pairs", o->stage1.batch.pairs, "Stage I view pairs per step")->capture_default_str();

@@ -130,7 +130,7 @@ void require_recorded_preset(const std::string& given, bool preset_given, const 
                   ") and --resume keeps its recorded settings; drop --preset, or start a new run in another folder");
 }
 
-// --resume of a latent NeRF: its recorded options, except --iters, --checkpoint-every and --cache-dir when given.
+// --resume of a latent NeRF: its recorded options, except --steps, --checkpoint-every and --cache-dir when given.
 int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   if (given.nerf_option_set)
     lrf::fail_usage("--rays, --samples and --hash-log2 are fixed when a latent NeRF starts; --resume keeps the recorded ones");
@@ -168,7 +168,7 @@ lrf::RgbTrainOptions rgb_options(const TrainOptions& o, const lrf::InitPointsOpt
   return r;
 }
 
-// --resume of an RGB field: its recorded options, except --iters and --checkpoint-every when given, and
+// --resume of an RGB field: its recorded options, except --steps and --checkpoint-every when given, and
 // --cache-dir (where triangulated points are cached).
 int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   lrf::RgbTrainOptions r = lrf::recorded_rgb_options(given.out);
@@ -184,7 +184,7 @@ int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoin
 }
 
 // --resume of a latent (or feature) field continues the run as it was started: every setting comes from
-// OUT/config.json except the ones given on this command line among --iters, --checkpoint-every and
+// OUT/config.json except the ones given on this command line among --steps, --checkpoint-every and
 // --cache-dir (which only says where encoded views are kept).
 TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   const std::string path = (std::filesystem::path(given.out) / "config.json").string();
@@ -293,7 +293,7 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                                      "--resume is given with the folder in place of the scene");
   lrf::cli::add_scene_options(cmd, &o->scene_options);
   lrf::cli::add_init_points_options(cmd, &o->init_points);
-  auto* iters = cmd->add_option("--iters", o->iters,
+  auto* iters = cmd->add_option("--steps,--iters", o->iters,
                                 "Training steps (default 30000; " + std::to_string(lrf::nerf::kDefaultNerfIters) +
                                     " for latent-nerf)")
                     ->each([o](const std::string&) { o->iters_set = true; });
@@ -322,12 +322,12 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_flag("--inria-rates", o->inria_rates,
                 "latent: keep Inria's learning rates in a run shorter than 7000 steps. By default such a run, whose "
-                "densification schedule is compressed by iters/7000, moves the means and SH coefficients "
-                "min(7000/iters, 4) times faster");
+                "densification schedule is compressed by steps/7000, moves the means and SH coefficients "
+                "min(7000/steps, 4) times faster");
   cmd->add_flag("--resume", o->resume,
                 "Continue the run in the output folder from its last checkpoint, with its recorded settings "
-                "(--iters and --checkpoint-every may change). Any field lrf train, compare or pipeline trained "
-                "continues so, e.g. `lrf train CMP/rgb_8 --resume --iters 14000`: the folder may stand in place of "
+                "(--steps and --checkpoint-every may change). Any field lrf train, compare or pipeline trained "
+                "continues so, e.g. `lrf train CMP/rgb_8 --resume --steps 14000`: the folder may stand in place of "
                 "the scene and -o");
   cmd->add_flag("--force", o->force, "Overwrite an existing output folder");
   auto* checkpoint = cmd->add_option("--checkpoint-every", o->checkpoint_every, "Save a checkpoint every N steps")

@@ -227,7 +227,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
     if (!nerf::nerf_run_finished(dir)) return false;
     const int64_t steps = nerf::recorded_nerf_options(dir).iters;
     if (steps != nerf_iters && !o.force)
-      fail(dir, "this latent NeRF was trained for " + std::to_string(steps) + " steps, not --nerf-iters " +
+      fail(dir, "this latent NeRF was trained for " + std::to_string(steps) + " steps, not --nerf-steps " +
                     std::to_string(nerf_iters) + ": use another output folder, or --force");
     return true;
   };

@@ -22,7 +22,7 @@ struct CompareOptions {
   int latent_sh_degree = 1;  // kDefaultLatentShDegree (latent/latent_run.h)
   int train_views = 0;  // few-shot: K evenly spaced training views for every method (0 = all)
   int64_t iters = 7000, latent_iters = 0;  // latent_iters 0 = iters
-  int64_t nerf_iters = 0;  // latent-nerf steps (0 = nerf::kDefaultNerfIters; --iters counts Gaussian steps)
+  int64_t nerf_iters = 0;  // latent-nerf steps (0 = nerf::kDefaultNerfIters; --steps counts Gaussian steps)
   uint64_t seed = 0;
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
   InitPointsOptions init_points;  // every method starts from the same points

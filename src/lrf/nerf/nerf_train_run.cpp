@@ -77,7 +77,7 @@ splat::OutputFolder prepare_nerf_output(const LatentNerfOptions& o) {
 }
 
 void check_options(const LatentNerfOptions& o) {
-  if (o.iters < 1) fail_usage("--iters must be at least 1");
+  if (o.iters < 1) fail_usage("--steps must be at least 1");
   if (o.rays < 1 || o.rays > (1 << 20)) fail_usage("--rays must be between 1 and 1048576");
   if (o.samples < 2 || o.samples > 1024) fail_usage("--samples must be between 2 and 1024");
   if (o.log2_table < 10 || o.log2_table > 24) fail_usage("--hash-log2 must be between 10 and 24");

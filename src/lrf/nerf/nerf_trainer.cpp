@@ -48,7 +48,7 @@ void adam_update(at::Tensor& param, const at::Tensor& grad, at::Tensor& m, at::T
 }  // namespace
 
 void NerfTrainOptions::check() const {
-  if (iterations < 1) fail_usage("--iters must be at least 1");
+  if (iterations < 1) fail_usage("--steps must be at least 1");
   if (rays_per_step < 1 || rays_per_step > (1 << 20)) fail_usage("--rays must be between 1 and 1048576");
   if (!(lr > 0) || !(lr_final > 0) || !std::isfinite(lr) || !std::isfinite(lr_final))
     fail("NeRF learning rates must be positive");
@@ -162,7 +162,7 @@ void NerfTrainer::load_checkpoint(const std::string& path) {
   const int64_t steps = step->item<int64_t>();
   if (steps < 0 || steps > options_.iterations)
     fail(path, "holds step " + std::to_string(steps) + ", beyond the run's " + std::to_string(options_.iterations) +
-                   " steps (resume with a larger --iters)");
+                   " steps (resume with a larger --steps)");
   restore("field.", field_);
   restore("adam_m.", m_);
   restore("adam_v.", v_);

@@ -17,11 +17,11 @@ const std::string kPaperSummary = "the paper's settings where lrf has them (hour
 const PresetTable& train_presets() {
   static const PresetTable table = {
       {"quick", kQuickSummary,
-       {{"--iters", "1500", "a twentieth of the full schedule, densification compressed to match", {}},
+       {{"--steps", "1500", "a twentieth of the full schedule, densification compressed to match", {}},
         {"--downscale", "2", "half the chosen images' width and height: fern's images_4 at images_8's size", {}}}},
       {kDefaultPreset, kDefaultSummary, {}},
       {"paper", kPaperSummary,
-       {{"--iters", "30000", "3DGS's and the paper's Stage II schedule", {"rgb", "latent"}},
+       {{"--steps", "30000", "3DGS's and the paper's Stage II schedule", {"rgb", "latent"}},
         {"--sh-degree", "3", "the paper code's SH degree for latent fields", {"rgb", "latent"}}}},
   };
   return table;
@@ -30,12 +30,12 @@ const PresetTable& train_presets() {
 const PresetTable& compare_presets() {
   static const PresetTable table = {
       {"quick", kQuickSummary,
-       {{"--iters", "1000", "steps of every Gaussian field", {}},
-        {"--nerf-iters", "1000", "steps of latent-nerf, when asked for", {}},
+       {{"--steps", "1000", "steps of every Gaussian field", {}},
+        {"--nerf-steps", "1000", "steps of latent-nerf, when asked for", {}},
         {"--refine-steps", "200", "steps of the latent-refined row", {}}}},
       {kDefaultPreset, kDefaultSummary, {}},
       {"paper", kPaperSummary,
-       {{"--iters", "30000", "3DGS's and the paper's Stage II schedule for every Gaussian field", {}},
+       {{"--steps", "30000", "3DGS's and the paper's Stage II schedule for every Gaussian field", {}},
         {"--latent-sh-degree", "3", "the paper code's SH degree for latent fields", {}}}},
   };
   return table;
@@ -45,13 +45,13 @@ const PresetTable& pipeline_presets() {
   static const PresetTable table = {
       {"quick", kQuickSummary,
        {{"--max-side", "320", "every scene at most 320 pixels wide or high", {}},
-        {"--field-iters", "1000", "steps of every latent field and RGB baseline", {}},
+        {"--field-steps", "1000", "steps of every latent field and RGB baseline", {}},
         {"--stage1-steps", "40", "Stage I steps", {}},
         {"--stage3-steps", "50", "Stage III steps", {}},
         {"--refine-steps", "200", "steps of the +refine rows", {}}}},
       {kDefaultPreset, kDefaultSummary, {}},
       {"paper", kPaperSummary,
-       {{"--field-iters", "30000", "3DGS's and the paper's Stage II schedule for every field", {}},
+       {{"--field-steps", "30000", "3DGS's and the paper's Stage II schedule for every field", {}},
         {"--stage1-crop", "512", "the paper's 512x512 Stage I crops", {}}}},
   };
   return table;

@@ -9,7 +9,7 @@
 namespace lrf {
 
 struct PresetSetting {
-  std::string option;  // the command's long option, e.g. "--iters"
+  std::string option;  // the command's long option, e.g. "--steps"
   std::string value;   // as it would be typed after the option
   std::string why;     // one short clause for --help
   // The `lrf train --space` values the setting applies to ("" = all): a setting that would be refused with
