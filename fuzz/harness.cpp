@@ -8,6 +8,7 @@
 #include "lrf/core/npy.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/raw_scene.h"
+#include "lrf/scene/scene_spec.h"
 
 namespace lrf::fuzz {
 namespace {
@@ -51,10 +52,24 @@ void transforms(const std::string& bytes) {
   common_images_dir(raw.views);
 }
 
+// A scene argument of lrf pipeline (PATH[:--images=DIR][:--downscale=N]). What it accepts must be what it
+// writes back: the path and options, written as the records write them, parse to the same scene.
+void scene_spec(const std::string& bytes) {
+  const SceneSpec s = parse_scene_spec(bytes);
+  if (s.path.empty()) throw std::logic_error("parse_scene_spec accepted an empty path");
+  if (s.resolution.downscale < 0 || s.resolution.downscale > kMaxSceneDownscale)
+    throw std::logic_error("parse_scene_spec accepted --downscale " + std::to_string(s.resolution.downscale));
+  const std::string again = s.resolution.is_default() ? s.path : s.path + ":" + s.resolution.text();
+  const SceneSpec t = parse_scene_spec(again);
+  if (t.path != s.path || t.resolution.json() != s.resolution.json())
+    throw std::logic_error("parse_scene_spec: '" + again + "' does not read back as it was written");
+}
+
 }  // namespace
 
 const std::vector<std::string>& plain_target_names() {
-  static const std::vector<std::string> names = {"colmap_bin", "colmap_txt", "npy", "correspondences", "transforms"};
+  static const std::vector<std::string> names = {"colmap_bin", "colmap_txt", "npy", "correspondences", "transforms",
+                                                 "scene_spec"};
   return names;
 }
 
@@ -69,6 +84,8 @@ bool run_plain_target(const std::string& target, const std::string& bytes) {
     parse_correspondences(bytes, "fuzz");
   } else if (target == "transforms") {
     transforms(bytes);
+  } else if (target == "scene_spec") {
+    scene_spec(bytes);
   } else {
     return false;
   }

@@ -254,6 +254,11 @@ int main(int argc, char** argv) {
       feature["background"] = std::vector<float>(2, 0.0f);
       seed(out, "field_config", "feature.json", feature.dump(2));
     }
+    // Scene arguments of lrf pipeline, as the docs write them.
+    seed(out, "scene_spec", "plain.txt", "../shared/scenes/llff-fern");
+    seed(out, "scene_spec", "images.txt", "../shared/scenes/llff-fern:--images=images_8");
+    seed(out, "scene_spec", "downscale.txt", "scenes/llff-room:--downscale=2");
+    seed(out, "scene_spec", "both.txt", "/data/a:b/nerd-maryrose:--images=images_masked:--downscale=3");
     fs::remove_all(scene);
     for (const auto& t : lrf::fuzz::target_names()) {
       if (!fs::exists(out / t)) throw lrf::Error("no seeds for fuzz target " + t);

@@ -14,7 +14,7 @@ cmake --build build --target lrf_fuzz_seeds
 CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DLRF_FUZZ=ON -DLRF_BUILD_TESTS=OFF -DLRF_BUILD_BENCH=OFF >/dev/null
 targets=("$@")
 [ ${#targets[@]} -gt 0 ] || targets=(colmap_bin colmap_txt npy correspondences transforms safetensors torch_zip pickle ply
-                                     field_config)
+                                     field_config scene_spec)
 cmake --build build-fuzz --target "${targets[@]/#/fuzz_}"
 rm -rf build-fuzz/seeds && ./build/lrf_fuzz_seeds build-fuzz/seeds
 # One thread per fuzzer (libtorch's pools included); process-lifetime allocations inside the

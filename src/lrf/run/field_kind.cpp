@@ -1,13 +1,8 @@
 #include "lrf/run/field_kind.h"
 
-#include <filesystem>
-
 #include <nlohmann/json.hpp>
 
 #include "lrf/core/error.h"
-#include "lrf/core/run_info.h"
-
-namespace fs = std::filesystem;
 
 namespace lrf {
 
@@ -36,12 +31,6 @@ FieldKind field_kind_of_config(const nlohmann::json& c, const std::string& path)
   if (!c.contains("space")) return FieldKind::rgb;
   if (!c["space"].is_string()) fail(path, "\"space\" is not a string");
   return parse_field_kind(c["space"].get<std::string>(), path);
-}
-
-std::optional<FieldKind> field_kind_of(const std::string& run) {
-  const std::string path = (fs::path(run) / "config.json").string();
-  if (!fs::exists(path)) return std::nullopt;
-  return field_kind_of_config(read_json_file(path), path);
 }
 
 }  // namespace lrf
