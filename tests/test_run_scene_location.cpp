@@ -117,6 +117,32 @@ TEST(RunSceneLocation, AMovedProjectKeepsWorking) {
   EXPECT_NE(r.output.find("reading it at " + (tmp / "project-moved/scene")), std::string::npos) << r.output;
 }
 
+// lrf train --resume: a project moved as a whole continues; after the scene alone moved, the run names its
+// old place and continues on the scene given in its place, if it has the recorded views.
+TEST(RunSceneLocation, TrainResumeAfterTheSceneMoved) {
+  TempDir tmp("run_scene_train");
+  project_with_run(tmp, "rgb", "--steps 4 --checkpoint-every 2");
+  fs::rename(tmp / "project", tmp / "project-moved");
+  const std::string run = tmp / "project-moved/runs/rgb";
+  auto r = run_lrf("--threads 2 train " + quoted(run) + " --resume --steps 6");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("reading it at " + (tmp / "project-moved/scene")), std::string::npos) << r.output;
+
+  fs::create_directories(tmp / "elsewhere");
+  fs::rename(tmp / "project-moved/scene", tmp / "elsewhere/scene");
+  r = run_lrf("train " + quoted(run) + " --resume --steps 8");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("lrf train SCENE -o " + run + " --resume"), std::string::npos) << r.output;
+  const std::string other = lrf::test::synthetic_scene({12, "64x48", 3, 800});
+  r = run_lrf("train " + quoted(other) + " -o " + quoted(run) + " --resume --steps 8");
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("is it the same scene?"), std::string::npos) << r.output;
+  r = run_lrf("--threads 2 train " + quoted(tmp / "elsewhere/scene") + " -o " + quoted(run) + " --resume --steps 8");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("resuming"), std::string::npos) << r.output;
+  EXPECT_EQ(lrf::read_json_file(run + "/config.json")["scene"], tmp / "elsewhere/scene");
+}
+
 TEST(RunSceneLocation, AnotherSceneIsRefused) {
   TempDir tmp("run_scene_other");
   const std::string run = project_with_run(tmp, "rgb", "--iters 2");

@@ -13,6 +13,8 @@
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/run/field_kind.h"
+#include "lrf/scene/run_scene_location.h"
+#include "lrf/scene/scene.h"
 #include "lrf/scene/scene.h"
 #include "lrf/rgb/rgb_train_run.h"
 #include "lrf/splat/run/run_config.h"
@@ -130,6 +132,27 @@ void require_recorded_preset(const std::string& given, bool preset_given, const 
                   ") and --resume keeps its recorded settings; drop --preset, or start a new run in another folder");
 }
 
+// The scene a resumed Gaussian field trains on: where its config.json records it (absolute, else relative to
+// the run folder, so that a project folder moved as a whole resumes) or, when it is at neither place, the
+// scene this command line names (`lrf train NEW_PLACE -o OUT --resume` after the scene alone moved), once it
+// is seen to have the recorded numbers of training and test views.
+std::string resumed_scene_root(const TrainOptions& given, const nlohmann::json& config, const std::string& path,
+                               const lrf::SceneOptions& scene_options) {
+  try {
+    return lrf::run_scene_root(config, path);
+  } catch (const lrf::Error& e) {
+    if (given.scene == given.out || given.scene.empty())
+      throw lrf::Error(std::string(e.what()) + " (lrf train: name it in place of the scene, `lrf train SCENE -o " +
+                       given.out + " --resume`)");
+  }
+  lrf::set_scene_override(given.scene);
+  const std::string root = lrf::run_scene_root(config, path);
+  lrf::check_run_scene_views(lrf::load_scene(root, scene_options), config, path);
+  lrf::set_scene_override("");
+  lrf::log_info("--resume: the recorded scene has moved; training on " + root);
+  return root;
+}
+
 // --resume of a latent NeRF: its recorded options, except --steps, --checkpoint-every and --cache-dir when given.
 int resume_train_nerf(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
   if (given.nerf_option_set)
@@ -177,7 +200,9 @@ int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoin
   if (iters_given) r.iters = given.iters;
   if (checkpoint_given) r.checkpoint_every = given.checkpoint_every;
   r.init_points.cache_dir = given.init_points.cache_dir.empty() ? given.cache_dir : given.init_points.cache_dir;
-  if (given.scene != r.scene && given.scene != given.out)
+  const std::string recorded = r.scene;
+  r.scene = resumed_scene_root(given, lrf::read_json_file(path), path, r.scene_options);
+  if (r.scene == recorded && given.scene != r.scene && given.scene != given.out)
     lrf::log_warn("--resume: training on " + r.scene + " as recorded in " + path + " (not " + given.scene + ")");
   lrf::train_rgb_field(r);
   return 0;
@@ -230,7 +255,9 @@ TrainOptions resumed_options(const TrainOptions& given, bool iters_given, bool c
       o.init_points.shell.radius_factor = stored["init_points"]["far_shell"].value("radius_factor", 2.0);
     }
   }
-  if (given.scene != o.scene)
+  const std::string recorded = o.scene;
+  o.scene = resumed_scene_root(given, stored, path, o.scene_options);
+  if (o.scene == recorded && given.scene != o.scene && given.scene != given.out)
     lrf::log_warn("--resume: training on " + o.scene + " as recorded in " + path + " (not " + given.scene + ")");
   return o;
 }
