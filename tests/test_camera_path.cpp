@@ -203,6 +203,35 @@ TEST(CameraPath, OrbitCirclesTheObject) {
   EXPECT_NEAR(g.radii.z(), 1.0, 1e-9);
 }
 
+// Photos taken with the camera on its side (each rolled 90 degrees about its axis): their up directions lie
+// in the ring (and cancel out over a full turn), so the orbit's axis is the normal of the plane of the
+// camera centres, pointing to the cameras' side of the object, and the orbit keeps the rig's height.
+TEST(CameraPath, OrbitOfSidewaysPhotosTurnsAboutTheRingsNormal) {
+  for (const int turn_degrees : {360, 180}) {  // a full ring (ups cancel) and half of one (ups lean sideways)
+    std::vector<lrf::Camera> rig;
+    for (int k = 0; k < 12; ++k) {
+      const double t = turn_degrees * M_PI / 180.0 * k / 12.0;
+      const Vector3d eye = kObject + Vector3d(3 * std::cos(t), 3 * std::sin(t), 1);
+      const Vector3d tangent(-std::sin(t), std::cos(t), 0);
+      rig.push_back(cp::look_at(intrinsics(), eye, kObject, tangent));
+      ASSERT_LT(std::abs(cp::camera_down(rig.back()).z()), 1e-9);  // on its side: "down" is horizontal
+    }
+    cp::PathOptions o;
+    o.frames = 8;
+    cp::PathGeometry g;
+    const auto path = cp::orbit_path(rig, {}, o, &g);
+    SCOPED_TRACE(turn_degrees);
+    EXPECT_LT((g.up - Vector3d::UnitZ()).norm(), 1e-9);
+    EXPECT_LT((g.center - kObject).norm(), 1e-9);
+    EXPECT_NEAR(g.radii.z(), 1.0, 1e-9);
+    EXPECT_NEAR(g.radii.x(), 3.0, 1e-9);
+    for (const auto& c : path) {
+      expect_looks_at(c, kObject);
+      EXPECT_NEAR(c.center().z(), kObject.z() + 1.0, 1e-9);
+    }
+  }
+}
+
 TEST(CameraPath, InterpPassesThroughTheViews) {
   const auto rig = object_rig();
   std::vector<lrf::Camera> views(rig.begin(), rig.begin() + 4);
