@@ -64,7 +64,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/threads.h"
 #include "lrf/eval/metrics.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/finetune/encoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
 #include "lrf/scene/scene.h"

@@ -19,7 +19,7 @@
 #include <ATen/Tensor.h>
 
 #include "lrf/feature/feature_lift.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/run/train_run.h"
 #include "lrf/splat/train/trainer.h"

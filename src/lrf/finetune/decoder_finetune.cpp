@@ -15,7 +15,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/finetune_output.h"
 #include "lrf/run/field_kind.h"

@@ -13,7 +13,7 @@
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_cache.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/finetune/finetune_output.h"
 
 namespace lrf {

@@ -20,7 +20,7 @@
 
 #include "lrf/core/precision.h"
 #include "lrf/distributed/data_parallel_group.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 
 namespace lrf {
 

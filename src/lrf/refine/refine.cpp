@@ -17,7 +17,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"

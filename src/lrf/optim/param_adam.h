@@ -1,8 +1,10 @@
 #pragma once
-// Stage I and Stage III fine-tune one half of an autoencoder with Adam. Both need to stop and resume to
-// exactly the same result, so the optimizer is a small explicit Adam whose whole state (the parameters,
-// both moments, the step) is one safetensors checkpoint; everything random in a step is derived from
-// (seed, step), so nothing else has to be saved.
+// Adam over a list of dense parameter tensors, for the jobs that train network weights: Stage I and Stage
+// III (one half of an autoencoder), the feature field's lift and the refinement's decoder. They must stop and
+// resume to exactly the same result, so the optimizer is a small explicit Adam whose whole state (the
+// parameters, both moments, the step) is one safetensors checkpoint; everything random in a step is derived
+// from (seed, step), so nothing else has to be saved. (The Gaussians have their own sparse, SIMD Adam:
+// splat/train/optimizer.h.)
 #include <cstdint>
 #include <map>
 #include <string>

@@ -1,4 +1,4 @@
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 
 #include <cmath>
 

@@ -3,7 +3,7 @@
 #include <torch/torch.h>
 
 #include "lrf/core/error.h"
-#include "lrf/finetune/adam_checkpoint.h"
+#include "lrf/optim/param_adam.h"
 #include "test_helpers.h"
 
 namespace {
