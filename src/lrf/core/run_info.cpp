@@ -1,6 +1,8 @@
 #include "lrf/core/run_info.h"
 
 #include <ctime>
+#include <map>
+#include <utility>
 
 #include <opencv2/core/version.hpp>
 #include <torch/version.h>
@@ -12,7 +14,6 @@
 #include "lrf/core/openmp_wait.h"
 #include "lrf/core/precision.h"
 #include "lrf/core/threads.h"
-#include "lrf/splat/raster/raster_kernels.h"
 
 namespace lrf {
 namespace {
@@ -25,8 +26,19 @@ void set_command_line(int argc, char** argv) {
 
 const std::vector<std::string>& command_line() { return g_command; }
 
+namespace {
+std::map<std::string, std::function<nlohmann::json()>>& version_facts() {
+  static std::map<std::string, std::function<nlohmann::json()>> facts;  // filled before main() runs
+  return facts;
+}
+}  // namespace
+
+void add_version_fact(const std::string& key, std::function<nlohmann::json()> fact) {
+  version_facts()[key] = std::move(fact);
+}
+
 nlohmann::json version_info() {
-  return {{"lrf", LRF_VERSION},
+  nlohmann::json info = {{"lrf", LRF_VERSION},
           {"git", LRF_GIT_COMMIT},
           {"build", LRF_BUILD_TYPE},
           {"libtorch", TORCH_VERSION},
@@ -34,9 +46,6 @@ nlohmann::json version_info() {
           {"threads", thread_count()},
           // How idle OpenMP workers waited (lrf's long commands run with "passive"; see openmp_wait.h).
           {"openmp_wait_policy", openmp_wait_policy()},
-          // Pixels composited at a time (8 with AVX2, 4 with SSE2): images do not depend on it, but
-          // gradients round differently, so a run reproduces exactly only at the same width.
-          {"compositing_lanes", splat::raster_vector_width()},
           // What the autoencoders computed in (fp32 or bf16: outputs differ by bf16 rounding), what was
           // asked for (fp32, bf16 or auto), and whether the CPU has native bf16 (what auto decides on).
           {"autoencoder_precision", precision_name(resolve_precision(default_precision()))},
@@ -47,6 +56,8 @@ nlohmann::json version_info() {
           {"autoencoder_winograd", resolve_precision(default_precision()) == Precision::bf16 && winograd_enabled()},
           // Its output tiles (2 or 3; they round differently).
           {"autoencoder_winograd_tile", winograd_tile()}};
+  for (const auto& [key, fact] : version_facts()) info[key] = fact();
+  return info;
 }
 
 std::string version_string() {

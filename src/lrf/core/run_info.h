@@ -1,5 +1,6 @@
 #pragma once
 // What produced an output folder: the command line, the options, the versions of lrf and its libraries.
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,9 @@ void set_command_line(int argc, char** argv);
 const std::vector<std::string>& command_line();
 // {"lrf": ..., "git": ..., "libtorch": ..., "opencv": ..., "build": ...}
 nlohmann::json version_info();
+// A fact that a layer above core adds to version_info() (the rasterizer its vector width), registered by
+// that layer when the program starts, so that core depends on none of them.
+void add_version_fact(const std::string& key, std::function<nlohmann::json()> fact);
 std::string version_string();
 // {"command": [...], "versions": {...}, "time": ISO-8601, "options": options}
 nlohmann::json run_record(const nlohmann::json& options);

@@ -1,6 +1,7 @@
 #include <atomic>
 
 #include "lrf/core/cpu_features.h"
+#include "lrf/core/run_info.h"
 #include "lrf/splat/raster/projection.h"
 #include "lrf/splat/raster/raster_kernels.h"
 #include "lrf/splat/raster/raster_widths.h"
@@ -38,6 +39,13 @@ std::atomic<const KernelSet*>& chosen() {
 }  // namespace
 
 int raster_vector_width() { return chosen().load()->width; }
+
+namespace {
+// Pixels composited at a time (8 with AVX2, 4 with SSE2), in every run's versions: images do not depend on
+// it, but gradients round differently, so a run reproduces exactly only at the same width.
+const bool kWidthRecorded =
+    (add_version_fact("compositing_lanes", [] { return nlohmann::json(raster_vector_width()); }), true);
+}  // namespace
 
 bool set_raster_vector_width(int width) {
   const KernelSet* k = kernels_of_width(width);
