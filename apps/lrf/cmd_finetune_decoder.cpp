@@ -29,6 +29,10 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--weight-train", o->weight_train, "Weight of the L1 on training views")->capture_default_str();
   cmd->add_option("--weight-novel", o->weight_novel, "Weight of the L1 on held-out (novel) views")->capture_default_str();
+  cmd->add_option("--lambda-ssim", o->lambda_ssim,
+                  "Mix each term's L1 with D-SSIM: (1 - lambda) L1 + lambda (1 - SSIM), as 3DGS does (0: the paper's "
+                  "pure L1)")
+      ->capture_default_str();
   cmd->add_option("--base-lr", o->base_lr, "Base learning rate; Adam's rate is base-lr x crops per step")
       ->capture_default_str();
   cmd->add_option("--lr", o->lr, "Adam's learning rate, overriding --base-lr scaling (0: use --base-lr)")

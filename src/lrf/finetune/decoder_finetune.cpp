@@ -1,4 +1,5 @@
 #include "lrf/finetune/decoder_finetune.h"
+#include "lrf/splat/train/loss.h"
 
 #include <chrono>
 #include <cmath>
@@ -83,11 +84,14 @@ nlohmann::json resume_key(const DecoderFinetuneOptions& o) {
 }  // namespace
 
 nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& o) {
-  return {{"fields", o.fields},       {"autoencoder", o.autoencoder}, {"encoder", o.encoder},
+  nlohmann::json j = {{"fields", o.fields},       {"autoencoder", o.autoencoder}, {"encoder", o.encoder},
           {"decoder", o.decoder},     {"steps", o.steps},             {"batch", o.batch},
           {"crop", o.crop},           {"weight_train", o.weight_train}, {"weight_novel", o.weight_novel},
           {"base_lr", o.base_lr},     {"lr", o.lr},                   {"seed", o.seed},
           {"checkpoint_every", o.checkpoint_every}};
+  // Recorded only when used, so that records of the paper's loss made before the option still match.
+  if (o.lambda_ssim != 0) j["lambda_ssim"] = o.lambda_ssim;
+  return j;
 }
 
 std::string decoder_checkpoint_path(const std::string& out) { return out + ".checkpoint.safetensors"; }
@@ -112,14 +116,17 @@ nlohmann::json stage3_inputs(const DecoderFinetuneOptions& o, const std::vector<
           {"latent_checksum", std::to_string(static_cast<float>(checksum))}};
 }
 
-// The crops of one term that this rank takes, and the mean L1 over them as its part of the term.
-at::Tensor share_l1(Autoencoder& ae, const std::pair<at::Tensor, at::Tensor>& crops, const BatchShare& share) {
+// The crops of one term that this rank takes, and the term's loss over them (mean L1, or its mix with
+// D-SSIM) as this rank's part of it.
+at::Tensor share_loss(Autoencoder& ae, const std::pair<at::Tensor, at::Tensor>& crops, const BatchShare& share,
+                      double lambda_ssim) {
   at::Tensor z = crops.first, x = crops.second;
   if (share.count != share.total) {
     z = z.narrow(0, share.first, share.count);
     x = x.narrow(0, share.first, share.count);
   }
-  at::Tensor l = (ae.decode_unclamped(z) - x).abs().mean();
+  const at::Tensor decoded = ae.decode_unclamped(z);
+  at::Tensor l = lambda_ssim == 0 ? (decoded - x).abs().mean() : splat::photometric_loss(decoded, x, lambda_ssim);
   const double part = share_weight(share);
   return part == 1.0 ? l : l * part;
 }
@@ -132,6 +139,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (o.steps < 1 || o.batch < 1) fail("finetune-decoder: --steps and --batch must be at least 1");
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");
+  if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail_usage("finetune-decoder: --lambda-ssim must be between 0 and 1");
   const int world = std::max(1, o.distributed.world_size);
   if (o.batch < world) {
     fail("finetune-decoder: --batch " + std::to_string(o.batch) + " is the global batch, split over " +
@@ -201,12 +209,12 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     at::Tensor loss = torch::zeros({});
     double l_train = 0, l_novel = 0;
     if (o.weight_train > 0) {
-      at::Tensor l = share_l1(*ae, sample_crops(train, o.batch, crop, rng), share);
+      at::Tensor l = share_loss(*ae, sample_crops(train, o.batch, crop, rng), share, o.lambda_ssim);
       l_train = l.item<double>();
       loss = loss + o.weight_train * l;
     }
     if (o.weight_novel > 0) {
-      at::Tensor l = share_l1(*ae, sample_crops(novel, o.batch, crop, rng), share);
+      at::Tensor l = share_loss(*ae, sample_crops(novel, o.batch, crop, rng), share, o.lambda_ssim);
       l_novel = l.item<double>();
       loss = loss + o.weight_novel * l;
     }
