@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/compare/compare_methods.h"
 #include "lrf/compare/compare_plan.h"
 #include "lrf/core/error.h"
 #include "lrf/core/folder_lock.h"
@@ -113,8 +114,8 @@ void require_same_latent_sh_degree(const std::string& dir, int wanted) {
 std::string fitted_to(const std::string& method, const std::string& dir, const Camera& camera) {
   const std::string full = std::to_string(camera.width) + "x" + std::to_string(camera.height);
   const std::string eighth = std::to_string(camera.width / 8) + "x" + std::to_string(camera.height / 8);
-  if (method == "rgb" || method == "rgb-mip") return full + " RGB";
-  if (method == "rgb/8" || method == "rgb/8-mip") return eighth + " RGB";
+  const CompareMethod& m = compare_method(method);
+  if (m.job == CompareJob::rgb_field) return (m.rgb_factor == 1 ? full : eighth) + " RGB";
   std::string channels = "?";
   const fs::path config = fs::path(dir) / "config.json";
   if (fs::exists(config)) {
@@ -122,13 +123,13 @@ std::string fitted_to(const std::string& method, const std::string& dir, const C
     if (c.contains("background") && c["background"].is_array()) channels = std::to_string(c["background"].size());
   }
   std::string latents = eighth + "x" + channels + " latents";
-  if (method == "feature-gs" && fs::exists(config)) {
+  if (m.job == CompareJob::feature_field && fs::exists(config)) {
     // The field renders fewer channels than the latent has: name both.
     const nlohmann::json c = read_json_file(config.string());
     latents = eighth + "x" + c.value("latent_channels", nlohmann::json()).dump() + " latents, from " +
               c.value("feature_dim", nlohmann::json()).dump() + " features by a 1x1 convolution";
   }
-  return method == "latent-refined" ? latents + ", then " + full + " RGB through the decoder" : latents;
+  return m.job == CompareJob::refined_latent ? latents + ", then " + full + " RGB through the decoder" : latents;
 }
 
 // One sentence for each Gaussian-field method this run has, for the report's notes (the notes describe the
@@ -197,17 +198,16 @@ std::optional<Chart> quality_chart(const CompareOptions& o) {
 }  // namespace
 
 const std::vector<std::string>& compare_methods() {
-  static const std::vector<std::string> m = {"rgb",    "rgb-mip",        "rgb/8",       "rgb/8-mip",
-                                             "latent", "latent-refined", "latent-nerf", "feature-gs"};
-  return m;
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (const auto& m : compare_method_table()) v.push_back(m.name);
+    return v;
+  }();
+  return names;
 }
 
 nlohmann::json run_compare(const CompareOptions& o) {
-  for (const auto& m : o.methods) {
-    if (std::find(compare_methods().begin(), compare_methods().end(), m) == compare_methods().end())
-      fail("unknown method '" + m + "' (rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined, latent-nerf, "
-           "feature-gs)");
-  }
+  for (const auto& m : o.methods) compare_method(m);  // an unknown name is refused before any work
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
   const std::string summary_path = (fs::path(o.out) / "compare.json").string();
@@ -223,7 +223,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
   // A latent NeRF keeps its own files (nerf/nerf_run.h); every other method is a Gaussian field.
   const int64_t nerf_iters = o.nerf_iters > 0 ? o.nerf_iters : nerf::kDefaultNerfIters;
   auto finished = [&](const std::string& method, const std::string& dir) {
-    if (method != "latent-nerf") return splat::run_finished(dir);
+    if (compare_method(method).kind != FieldKind::latent_nerf) return splat::run_finished(dir);
     if (!nerf::nerf_run_finished(dir)) return false;
     const int64_t steps = nerf::recorded_nerf_options(dir).iters;
     if (steps != nerf_iters && !o.force)
@@ -232,7 +232,8 @@ nlohmann::json run_compare(const CompareOptions& o) {
     return true;
   };
   auto resumable = [&](const std::string& method, const std::string& dir) {
-    const std::string checkpoint = method == "latent-nerf" ? nerf::nerf_checkpoint_path(dir) : splat::checkpoint_path(dir);
+    const std::string checkpoint = compare_method(method).kind == FieldKind::latent_nerf ? nerf::nerf_checkpoint_path(dir)
+                                                                                         : splat::checkpoint_path(dir);
     return !o.force && fs::exists(checkpoint) && !finished(method, dir);
   };
   // The latent field's training options, shared by the latent row and the feature-gs baseline.
@@ -269,20 +270,21 @@ nlohmann::json run_compare(const CompareOptions& o) {
   nlohmann::json all = nlohmann::json::object();
   for (size_t i = 0; i < o.methods.size(); ++i) {
     const std::string& method = o.methods[i];
+    const CompareMethod& m = compare_method(method);
     const std::string dir = (fs::path(o.out) / method_dir(method)).string();
     log_info("== " + method + " (" + std::to_string(i + 1) + " of " + std::to_string(o.methods.size()) +
              "): " + compare_method_plan(method, o));
     const std::string metrics_path = (fs::path(dir) / "metrics.json").string();
     const int feature_dim = o.feature_dim > 0 ? o.feature_dim : kHalfLatentChannels;
-    if (method == "feature-gs" && !o.force) require_same_feature_dim(dir, feature_dim);
-    if ((method == "latent" || method == "latent-refined") && !o.force) {
+    if (m.job == CompareJob::feature_field && !o.force) require_same_feature_dim(dir, feature_dim);
+    if ((m.job == CompareJob::latent_field || m.job == CompareJob::refined_latent) && !o.force) {
       require_same_latent_sh_degree(latent_dir, o.latent_sh_degree);
       require_same_latent_sh_degree(dir, o.latent_sh_degree);
     }
     // The refined field is brought up to date first: a finished one is reused only if made with the refine
     // options asked for now (refine_folder.h), so that its row cannot pass for another setting's.
     bool refined_now = false;
-    if (method == "latent-refined") {
+    if (m.job == CompareJob::refined_latent) {
       ensure_latent_field();
       RefineOptions r = o.refine;
       r.run = latent_dir;
@@ -302,17 +304,17 @@ nlohmann::json run_compare(const CompareOptions& o) {
     }
     const bool resume = resumable(method, dir);
     if (resume) log_info(method + ": resuming its run");
-    if (method == "latent") {
+    if (m.job == CompareJob::latent_field) {
       ensure_latent_field();
       LatentEvalOptions le;
       le.decoder = o.decoder;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
-    } else if (method == "latent-refined") {  // refined above
+    } else if (m.job == CompareJob::refined_latent) {  // refined above
       LatentEvalOptions le;
       le.lpips_weights = o.lpips_weights;
       all[method] = evaluate_latent_run(dir, le);
-    } else if (method == "latent-nerf") {
+    } else if (m.job == CompareJob::latent_nerf) {
       if (o.force || !finished(method, dir)) {
         nerf::LatentNerfOptions n;
         n.scene = o.scene;
@@ -335,7 +337,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
       le.decoder = o.decoder;
       le.lpips_weights = o.lpips_weights;
       all[method] = nerf::evaluate_nerf_run(dir, le);
-    } else if (method == "feature-gs") {
+    } else if (m.job == CompareJob::feature_field) {
       if (o.force || !splat::run_finished(dir)) {
         // The latent field's training, with a feature field in place of latent features.
         LatentTrainOptions l = latent_field_options(dir, resume);
@@ -353,9 +355,9 @@ nlohmann::json run_compare(const CompareOptions& o) {
         b.scene = o.scene;
         b.scene_options = so;  // cropped to multiples of 8, as the latent rows' views
         b.out = dir;
-        b.factor = method.rfind("rgb/8", 0) == 0 ? 8 : 1;
+        b.factor = m.rgb_factor;
         b.iters = o.iters;
-        b.mip = method == "rgb/8-mip" || method == "rgb-mip";
+        b.mip = m.mip;
         b.seed = o.seed;
         b.resume = resume;
         b.force = !resume;
