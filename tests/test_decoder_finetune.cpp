@@ -109,6 +109,41 @@ TEST_F(DecoderFinetune, SsimMixIsRecordedOnlyWhenUsedAndStillLowersHeldOutL1) {
   EXPECT_NE(error_of([&] { lrf::finetune_decoder(bad); }).find("--lambda-ssim"), std::string::npos);
 }
 
+// Mean L1 of the encode-decode round trip over a field's held-out views.
+double heldout_roundtrip_l1(const std::string& field_dir, const std::string& decoder) {
+  torch::NoGradGuard no_grad;
+  lrf::LatentRun run = lrf::open_latent_run(field_dir);
+  auto ae = lrf::load_autoencoder(taef2(), "", decoder);
+  double sum = 0;
+  for (int i : run.scene.test_indices) {
+    const at::Tensor image = lrf::image_to_batch(run.scene.load_image(i));
+    sum += (ae->decode(ae->encode(image)) - image).abs().mean().item<double>();
+  }
+  return sum / run.scene.test_indices.size();
+}
+
+// The round-trip term (encoded training images beside the rendered latents) keeps the decoder decoding
+// ordinary latents: an unseen scene's encode-decode round trip suffers less than under the paper's loss
+// alone; and it is recorded only when used.
+TEST_F(DecoderFinetune, RoundTripTermKeepsTheDecoderDecodingEncodedLatents) {
+  lrf::DecoderFinetuneOptions plain = options(*dir_ / "rt-plain.safetensors");
+  lrf::finetune_decoder(plain);
+  lrf::DecoderFinetuneOptions kept = options(*dir_ / "rt-kept.safetensors");
+  kept.weight_roundtrip = 1.0;
+  lrf::finetune_decoder(kept);
+  EXPECT_FALSE(lrf::read_json_file(lrf::decoder_record_path(plain.out))["options"].contains("weight_roundtrip"));
+  EXPECT_EQ(lrf::read_json_file(lrf::decoder_record_path(kept.out))["options"]["weight_roundtrip"], 1.0);
+  const std::string unseen = field(dir_->str(), 13);
+  const double stock = heldout_roundtrip_l1(unseen, ""), l1_only = heldout_roundtrip_l1(unseen, plain.out),
+               with_term = heldout_roundtrip_l1(unseen, kept.out);
+  std::printf("round-trip L1 on an unseen scene: %.5f stock, %.5f paper's loss, %.5f with the term\n", stock,
+              l1_only, with_term);
+  EXPECT_LT(with_term, l1_only);
+  lrf::DecoderFinetuneOptions bad = options(*dir_ / "rt-bad.safetensors");
+  bad.weight_roundtrip = -1;
+  EXPECT_NE(error_of([&] { lrf::finetune_decoder(bad); }).find("--weight-roundtrip"), std::string::npos);
+}
+
 // Stage III at each precision (bf16: bf16 compute on float32 master weights and Adam state).
 class DecoderFinetuneAt : public DecoderFinetune, public ::testing::WithParamInterface<lrf::Precision> {
  protected:

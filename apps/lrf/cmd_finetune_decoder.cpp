@@ -33,6 +33,10 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
                   "Mix each term's L1 with D-SSIM: (1 - lambda) L1 + lambda (1 - SSIM), as 3DGS does (0: the paper's "
                   "pure L1)")
       ->capture_default_str();
+  cmd->add_option("--weight-roundtrip", o->weight_roundtrip,
+                  "Weight of a third L1 term on crops of the training images encoded by the frozen encoder, which "
+                  "keeps the decoder decoding ordinary latents (0: none, the paper's loss)")
+      ->capture_default_str();
   cmd->add_option("--base-lr", o->base_lr, "Base learning rate; Adam's rate is base-lr x crops per step")
       ->capture_default_str();
   cmd->add_option("--lr", o->lr, "Adam's learning rate, overriding --base-lr scaling (0: use --base-lr)")

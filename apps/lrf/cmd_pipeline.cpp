@@ -58,6 +58,10 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--stage3-lambda-ssim", o->stage3_lambda_ssim,
                   "Stage III: mix each term's L1 with D-SSIM, (1 - lambda) L1 + lambda (1 - SSIM) (0: the paper's pure L1)")
       ->capture_default_str();
+  cmd->add_option("--stage3-weight-roundtrip", o->stage3_weight_roundtrip,
+                  "Stage III: weight of an L1 term on encoded training images that keeps the decoder decoding ordinary "
+                  "latents (0: none, the paper's loss)")
+      ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of every stage")->capture_default_str();
   cmd->add_option("--eval-train-views", o->eval_train_views,
                   "Few-shot protocol on the evaluation scenes (the paper's Table 2 uses 3): their fields train on only K "

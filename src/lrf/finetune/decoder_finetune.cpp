@@ -91,6 +91,7 @@ nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& o) {
           {"checkpoint_every", o.checkpoint_every}};
   // Recorded only when used, so that records of the paper's loss made before the option still match.
   if (o.lambda_ssim != 0) j["lambda_ssim"] = o.lambda_ssim;
+  if (o.weight_roundtrip != 0) j["weight_roundtrip"] = o.weight_roundtrip;
   return j;
 }
 
@@ -140,6 +141,8 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail_usage("finetune-decoder: --lambda-ssim must be between 0 and 1");
+  if (!(o.weight_roundtrip >= 0 && std::isfinite(o.weight_roundtrip)))
+    fail_usage("finetune-decoder: --weight-roundtrip must be a finite number >= 0");
   const int world = std::max(1, o.distributed.world_size);
   if (o.batch < world) {
     fail("finetune-decoder: --batch " + std::to_string(o.batch) + " is the global batch, split over " +
@@ -159,7 +162,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   try {
     if (group->is_main()) lock.emplace(claim_finetune_output(o.out, ckpt, o.force, o.resume));
     build_dataset(o, &train, &novel, &scenes);
-    if (train.empty() && o.weight_train > 0) fail(o.fields.front(), "the fields have no training views");
+    if (train.empty() && (o.weight_train > 0 || o.weight_roundtrip > 0)) fail(o.fields.front(), "the fields have no training views");
     if (novel.empty() && o.weight_novel > 0) {
       fail(o.fields.front(), "the fields have no held-out views for the novel-view term (train them with test views, "
                              "or pass --weight-novel 0)");
@@ -218,7 +221,19 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
       l_novel = l.item<double>();
       loss = loss + o.weight_novel * l;
     }
-    return FinetuneStepLoss{loss, {{"l1_train", l_train}, {"l1_novel", l_novel}}};
+    FinetuneStepLoss step_loss{loss, {{"l1_train", l_train}, {"l1_novel", l_novel}}};
+    // Drawn after the paper's terms, so that without it every step's crops are what they were.
+    if (o.weight_roundtrip > 0) {
+      auto crops = sample_crops(train, o.batch, crop, rng);
+      {
+        torch::NoGradGuard no_grad;
+        crops.first = ae->encode(crops.second);
+      }
+      at::Tensor l = share_loss(*ae, crops, share, o.lambda_ssim);
+      step_loss.loss = step_loss.loss + o.weight_roundtrip * l;
+      step_loss.metrics.push_back({"l1_roundtrip", l.item<double>()});
+    }
+    return step_loss;
   };
   FinetuneLoopResult run = run_finetune_loop(loop);
 

@@ -6,7 +6,10 @@
 //   loss = weight_train * mean |D(Z_train) - I_train| + weight_novel * mean |D(Z_novel) - I_novel|
 // (the paper's), or with lambda_ssim > 0 each term mixed with D-SSIM as 3DGS does, (1 - lambda) L1 +
 // lambda (1 - SSIM): a structure-aware term for the decoder that sharpens edges the fields place a little off
-// (a lever of Stage III's to measure; the paper's loss is the default)
+// (a lever of Stage III's to measure; the paper's loss is the default). With weight_roundtrip > 0 a third
+// term, on crops of the training images encoded by the (frozen) encoder, keeps the decoder decoding ordinary
+// latents: on validation splits the paper's loss made the round trip 6-9 dB worse on scenes unlike the
+// training scenes (docs/results.md), the decoder drifting rather than learning the fields' artefacts.
 // on random aligned crops (latent crop c/8, image crop c at 8x the offset), on the decoder's output before
 // its [0, 1] clamp: through the clamp a pixel decoded past 0 or 1 would get no gradient back (measured on
 // fern in an earlier branch: 20.60 -> 21.02 dB with the unclamped loss, same schedule).
@@ -30,6 +33,8 @@ struct DecoderFinetuneOptions {
   int crop = 128;                // image crop side (multiple of 8), reduced to fit the smallest view
   double weight_train = 0.5, weight_novel = 0.5;
   double lambda_ssim = 0;        // 0 = the paper's pure L1
+  double weight_roundtrip = 0;   // weight of the encoded-image term (0 = none, the paper's loss; its crops do
+                                 // not count in the base rate's crops per step)
   double base_lr = 4.5e-6;       // the paper's base rate; Adam's rate is base_lr x crops per step ...
   double lr = 0;                 // ... unless this is set (> 0)
   uint64_t seed = 0;

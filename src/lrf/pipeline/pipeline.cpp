@@ -258,6 +258,7 @@ DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vect
   if (o.stage3_lr > 0) d.lr = o.stage3_lr;
   if (o.stage3_crop > 0) d.crop = o.stage3_crop;
   d.lambda_ssim = o.stage3_lambda_ssim;
+  d.weight_roundtrip = o.stage3_weight_roundtrip;
   d.seed = o.seed;
   return d;
 }
@@ -551,7 +552,9 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                            {"seed", o.seed},
                            {"eval_train_views", o.eval_train_views},
                            {"view_images", kViewImagesVersion}};
-  if (o.stage3_lambda_ssim != 0) inputs["stage3_lambda_ssim"] = o.stage3_lambda_ssim;  // only when used: older records match
+  // Recorded only when used, so that older records match.
+  if (o.stage3_lambda_ssim != 0) inputs["stage3_lambda_ssim"] = o.stage3_lambda_ssim;
+  if (o.stage3_weight_roundtrip != 0) inputs["stage3_weight_roundtrip"] = o.stage3_weight_roundtrip;
   for (const auto& s : scenes.train) inputs["train_scenes"].push_back(canonical_path(s));
   for (const auto& s : scenes.eval) inputs["eval_scenes"].push_back(canonical_path(s));
   // Each scene's resolution: the options given after its folder, and the image folder and downscale used.
