@@ -138,19 +138,14 @@ void require_recorded_preset(const std::string& given, bool preset_given, const 
 // is seen to have the recorded numbers of training and test views.
 std::string resumed_scene_root(const TrainOptions& given, const nlohmann::json& config, const std::string& path,
                                const lrf::SceneOptions& scene_options) {
+  const std::string named = given.scene == given.out ? "" : given.scene;
   try {
-    return lrf::run_scene_root(config, path);
+    return lrf::resumed_run_scene_root(config, path, named, scene_options);
   } catch (const lrf::Error& e) {
-    if (given.scene == given.out || given.scene.empty())
-      throw lrf::Error(std::string(e.what()) + " (lrf train: name it in place of the scene, `lrf train SCENE -o " +
-                       given.out + " --resume`)");
+    if (!named.empty()) throw;
+    throw lrf::Error(std::string(e.what()) + " (lrf train: name it in place of the scene, `lrf train SCENE -o " +
+                     given.out + " --resume`)");
   }
-  lrf::set_scene_override(given.scene);
-  const std::string root = lrf::run_scene_root(config, path);
-  lrf::check_run_scene_views(lrf::load_scene(root, scene_options), config, path);
-  lrf::set_scene_override("");
-  lrf::log_info("--resume: the recorded scene has moved; training on " + root);
-  return root;
 }
 
 // --resume of a latent NeRF: its recorded options, except --steps, --checkpoint-every and --cache-dir when given.
@@ -194,14 +189,15 @@ lrf::RgbTrainOptions rgb_options(const TrainOptions& o, const lrf::InitPointsOpt
 // --resume of an RGB field: its recorded options, except --steps and --checkpoint-every when given, and
 // --cache-dir (where triangulated points are cached).
 int resume_train_rgb(const TrainOptions& given, bool iters_given, bool checkpoint_given, bool preset_given) {
-  lrf::RgbTrainOptions r = lrf::recorded_rgb_options(given.out);
   const std::string path = (std::filesystem::path(given.out) / "config.json").string();
+  const nlohmann::json stored = lrf::read_json_file(path);
+  lrf::RgbTrainOptions r = lrf::recorded_rgb_options(given.out, stored);
   require_recorded_preset(given.preset, preset_given, r.preset, path);
   if (iters_given) r.iters = given.iters;
   if (checkpoint_given) r.checkpoint_every = given.checkpoint_every;
   r.init_points.cache_dir = given.init_points.cache_dir.empty() ? given.cache_dir : given.init_points.cache_dir;
   const std::string recorded = r.scene;
-  r.scene = resumed_scene_root(given, lrf::read_json_file(path), path, r.scene_options);
+  r.scene = resumed_scene_root(given, stored, path, r.scene_options);
   if (r.scene == recorded && given.scene != r.scene && given.scene != given.out)
     lrf::log_warn("--resume: training on " + r.scene + " as recorded in " + path + " (not " + given.scene + ")");
   lrf::train_rgb_field(r);

@@ -138,10 +138,8 @@ RgbTrainResult train_rgb_field(const RgbTrainOptions& o) {
   return {summary.steps, summary.gaussians, summary.seconds};
 }
 
-RgbTrainOptions recorded_rgb_options(const std::string& out) {
+RgbTrainOptions recorded_rgb_options(const std::string& out, const nlohmann::json& stored) {
   const std::string path = (fs::path(out) / "config.json").string();
-  if (!fs::exists(path)) fail(path, "not found: is " + out + " a folder made by 'lrf train'?");
-  const nlohmann::json stored = read_json_file(path);
   if (field_kind_of_config(stored, path) != FieldKind::rgb) fail(path, "not an RGB field");
   RgbTrainOptions o;
   o.out = out;

@@ -51,7 +51,8 @@ RgbTrainResult train_rgb_field(const RgbTrainOptions& options);
 
 // The options OUT's RGB run was started with (for --resume), from its config.json: the scene settings
 // from the keys that reload the scene, the rest from "options" (absent ones, in folders written before
-// they existed, at their defaults). Throws lrf::Error naming config.json for a folder that holds no RGB run.
-RgbTrainOptions recorded_rgb_options(const std::string& out);
+// they existed, at their defaults). `config` is OUT/config.json as read. Throws lrf::Error naming config.json
+// for a folder that holds no RGB run.
+RgbTrainOptions recorded_rgb_options(const std::string& out, const nlohmann::json& config);
 
 }  // namespace lrf

@@ -25,6 +25,27 @@ size_t recorded_count(const nlohmann::json& config, const char* key, const std::
   return v.get<size_t>();
 }
 
+// The recorded numbers of views against `scene`'s; `named` is the folder the command line gave (by `how`),
+// "" when the scene is the recorded one.
+void check_views(const Scene& scene, const nlohmann::json& config, const std::string& config_path,
+                 const std::string& named, const std::string& how) {
+  if (!config.contains("train_views") || !config.contains("test_views")) return;  // runs older than the record
+  const size_t train = recorded_count(config, "train_views", config_path);
+  const size_t test = recorded_count(config, "test_views", config_path);
+  if (scene.train_indices.size() == train && scene.test_indices.size() == test) return;
+  const std::string found = std::to_string(scene.views.size()) + " views (" +
+                            std::to_string(scene.train_indices.size()) + " training, " +
+                            std::to_string(scene.test_indices.size()) + " test)";
+  const std::string expected = std::to_string(train) + " training and " + std::to_string(test) + " test views";
+  if (!named.empty()) {
+    fail(named, how + ": this scene has " + found + " but the run in " +
+                    absolute_normal(config_path).parent_path().string() + " was trained on " + expected +
+                    ": is it the same scene?");
+  }
+  fail(scene.root, "the scene has " + found + " but the run was trained on " + expected + " (" + config_path +
+                       "): it changed since training");
+}
+
 }  // namespace
 
 nlohmann::json scene_location_record(const std::string& scene_root, const std::string& run_folder) {
@@ -61,22 +82,24 @@ std::string run_scene_root(const nlohmann::json& config, const std::string& conf
                         ": it was moved or deleted; give its folder with --scene DIR");
 }
 
-void check_run_scene_views(const Scene& scene, const nlohmann::json& config, const std::string& config_path) {
-  if (!config.contains("train_views") || !config.contains("test_views")) return;  // runs older than the record
-  const size_t train = recorded_count(config, "train_views", config_path);
-  const size_t test = recorded_count(config, "test_views", config_path);
-  if (scene.train_indices.size() == train && scene.test_indices.size() == test) return;
-  const std::string found = std::to_string(scene.views.size()) + " views (" +
-                            std::to_string(scene.train_indices.size()) + " training, " +
-                            std::to_string(scene.test_indices.size()) + " test)";
-  const std::string expected = std::to_string(train) + " training and " + std::to_string(test) + " test views";
-  if (!g_override.empty()) {
-    fail(g_override, "--scene: this scene has " + found + " but the run in " +
-                         absolute_normal(config_path).parent_path().string() + " was trained on " + expected +
-                         ": is it the same scene?");
+std::string resumed_run_scene_root(const nlohmann::json& config, const std::string& config_path,
+                                   const std::string& named, const SceneOptions& options) {
+  if (named.empty()) return run_scene_root(config, config_path);
+  try {
+    return run_scene_root(config, config_path);
+  } catch (const Error&) {
+    // Neither recorded place (nor --scene) holds it: the scene this command line names is tried next.
   }
-  fail(scene.root, "the scene has " + found + " but the run was trained on " + expected + " (" + config_path +
-                       "): it changed since training");
+  std::error_code ec;
+  if (!fs::is_directory(named, ec)) fail(named, "scene folder not found");
+  const std::string root = absolute_normal(named).string();
+  check_views(load_scene(root, options), config, config_path, root, "lrf train SCENE --resume");
+  log_info("--resume: the recorded scene has moved; training on " + root);
+  return root;
+}
+
+void check_run_scene_views(const Scene& scene, const nlohmann::json& config, const std::string& config_path) {
+  check_views(scene, config, config_path, g_override, "--scene");
 }
 
 }  // namespace lrf

@@ -22,6 +22,12 @@ const std::string& scene_override();
 // folder and suggesting --scene when none exists.
 std::string run_scene_root(const nlohmann::json& config, const std::string& config_path);
 
+// The scene folder of a run that `lrf train SCENE -o OUT --resume` continues: as run_scene_root, but when the
+// recorded places are gone, `named` (SCENE; "" = none) once it is seen to have the recorded numbers of
+// training and test views, read with the run's `options` (after the scene alone moved).
+std::string resumed_run_scene_root(const nlohmann::json& config, const std::string& config_path,
+                                   const std::string& named, const SceneOptions& options);
+
 // Throws lrf::Error when `scene` (reloaded with the run's scene options) has not the numbers of training and
 // test views that config.json recorded at training: another scene given with --scene, or one that changed.
 void check_run_scene_views(const Scene& scene, const nlohmann::json& config, const std::string& config_path);
