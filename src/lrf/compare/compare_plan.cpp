@@ -18,9 +18,7 @@ std::string compare_method_plan(const std::string& method, const CompareOptions&
       return "a latent field on the " + o.autoencoder + " latents of the views, " + latent_steps + " steps" + scored;
     case CompareJob::refined_latent:
       return "the latent field (" + latent_steps + " steps, unless already made) refined through the decoder for " +
-           (o.refine.steps > 0 ? std::to_string(o.refine.steps) + " steps"
-                               : std::to_string(kRefineStepsPerView) + " steps per training view") +
-           scored;
+           refine_length_text(o.refine) + scored;
     case CompareJob::latent_nerf:
       return "a hash-grid NeRF on the latents, " +
            std::to_string(o.nerf_iters > 0 ? o.nerf_iters : nerf::kDefaultNerfIters) + " steps" + scored;

@@ -202,9 +202,7 @@ void refine_eval_field(const PipelineOptions& o, const std::string& field, const
   r.decoder = decoder;
   r.seed = o.seed;
   r.cache_dir = o.cache_dir;
-  const std::string steps = r.steps > 0 ? std::to_string(r.steps) + " steps"
-                                        : std::to_string(kRefineStepsPerView) + " steps per training view";
-  log_info("== refinement " + dir + ": up to " + steps + " of " + field +
+  log_info("== refinement " + dir + ": up to " + refine_length_text(r) + " of " + field +
            " through its decoder (a finished one is reused)");
   ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir, false);
 }

@@ -104,10 +104,14 @@ RefineOptions with_refine_steps(RefineOptions o) {
   return with_refine_steps_of(o, read_json_file(config), config);
 }
 
+std::string refine_length_text(const RefineOptions& o) {
+  return o.steps > 0 ? std::to_string(o.steps) + " steps"
+                     : std::to_string(kRefineStepsPerView) + " steps per training view";
+}
+
 std::string refine_description(const RefineOptions& o) {
   std::ostringstream s;
-  if (o.steps > 0) s << o.steps << " steps";
-  else s << kRefineStepsPerView << " steps per training view";
+  s << refine_length_text(o);
   if (o.lr_scale != 1) s << " at Stage II's rates x" << o.lr_scale;
   if (o.crop > 0) s << " on " << o.crop << " px windows";
   if (o.decoder_lr > 0) {

@@ -107,6 +107,9 @@ RefineOptions with_refine_steps(RefineOptions options);
 
 RefineResult refine_latent_field(const RefineOptions& options);
 
+// The length of a refinement in words: "1000 steps", or "60 steps per training view" for the default.
+std::string refine_length_text(const RefineOptions& options);
+
 // The settings that shape a refined field, in words for tables' notes: "1000 steps at Stage II's rates x2,
 // decoder adapted at Adam rate 0.0002 up to 2x the latent resolution, cameras jittered by up to 7 px".
 std::string refine_description(const RefineOptions& options);
