@@ -135,7 +135,7 @@ int main(int argc, char** argv) {
     if (run.empty()) {
       lrf::LatentTrainOptions l;
       l.scene = shared_dir() + "/scenes/llff-fern";
-      l.images = "images_8";
+      l.scene_options.images_dir = "images_8";
       l.iters = field_iters;
       l.out = (work / "field").string();
       l.force = true;

@@ -61,15 +61,12 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   lrf::LatentTrainOptions l;
   l.scene = o.scene;
   l.out = o.out;
-  l.images = o.scene_options.images_dir;
   l.autoencoder = o.autoencoder;
   l.encoder = o.encoder;
   l.init = o.init;
   l.rgb_guide = o.rgb_guide;
   l.cache_dir = o.cache_dir;
-  l.downscale = o.scene_options.downscale;
-  l.test_every = o.scene_options.test_every;
-  l.train_views = o.scene_options.train_views;
+  l.scene_options = o.scene_options;
   // A negative count is compare's "half the latent channels", met here only in a run being resumed.
   if (o.feature_dim < 0 && !o.resume) lrf::fail_usage("--feature-dim must be 0 (a latent field) or a feature count");
   l.feature_dim = o.feature_dim;
@@ -104,13 +101,10 @@ int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) 
   lrf::nerf::LatentNerfOptions n;
   n.scene = o.scene;
   n.out = o.out;
-  n.images = o.scene_options.images_dir;
   n.autoencoder = o.autoencoder;
   n.encoder = o.encoder;
   n.cache_dir = o.cache_dir;
-  n.downscale = o.scene_options.downscale;
-  n.test_every = o.scene_options.test_every;
-  n.train_views = o.scene_options.train_views;
+  n.scene_options = o.scene_options;
   n.iters = o.iters_set ? o.iters : lrf::nerf::kDefaultNerfIters;
   n.checkpoint_every = o.checkpoint_every;
   n.rays = o.rays;

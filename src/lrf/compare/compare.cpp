@@ -241,10 +241,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
     LatentTrainOptions l;
     l.scene = o.scene;
     l.out = out;
-    l.images = o.images;
-    l.downscale = o.downscale;
-    l.test_every = o.test_every;
-    l.train_views = o.train_views;
+    l.scene_options = so;
     l.autoencoder = o.autoencoder;
     l.encoder = o.encoder;
     l.cache_dir = o.cache_dir;
@@ -319,10 +316,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
         nerf::LatentNerfOptions n;
         n.scene = o.scene;
         n.out = dir;
-        n.images = o.images;
-        n.downscale = o.downscale;
-        n.test_every = o.test_every;
-        n.train_views = o.train_views;
+        n.scene_options = so;
         n.autoencoder = o.autoencoder;
         n.encoder = o.encoder;
         n.cache_dir = o.cache_dir;

@@ -9,10 +9,7 @@ namespace lrf {
 
 EncodedScene load_encoded_scene(const EncodedSceneRequest& r) {
   EncodedScene out;
-  out.options.images_dir = r.images;
-  out.options.downscale = r.downscale;
-  out.options.test_every = r.test_every;
-  out.options.train_views = r.train_views;
+  out.options = r.options;
   out.options.crop_to_multiple_of_8 = true;
   out.scene = load_scene(r.scene, out.options);
   if (out.scene.train_indices.empty()) fail(r.scene, "no training views");

@@ -15,10 +15,7 @@ namespace lrf {
 
 struct EncodedSceneRequest {
   std::string scene;        // folder
-  std::string images;       // image folder inside it ("" = the format's default)
-  int downscale = 1;
-  int test_every = 8;
-  int train_views = 0;      // few-shot K (0 = every non-test view)
+  SceneOptions options;     // image folder, downscale, test split, few-shot K (cropped to multiples of 8 here)
   std::string autoencoder;  // name or path
   std::string encoder;      // fine-tuned encoder weights ("" = stock)
   std::string cache_dir;    // "" = default_cache_dir()

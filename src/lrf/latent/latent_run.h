@@ -32,12 +32,15 @@ constexpr int kDefaultLatentShDegree = 1;
 constexpr int kHalfLatentChannels = -1;
 
 struct LatentTrainOptions {
-  std::string scene, out, images, autoencoder = "taef2", encoder, init = "latents", cache_dir;
+  std::string scene, out, autoencoder = "taef2", encoder, init = "latents", cache_dir;
+  // The image folder, downscale, test split and few-shot training views (train_views: K evenly spaced
+  // training views; 0 = all). The views are always centre-cropped to multiples of 8; a test list and a
+  // forced format are not read for latent fields yet.
+  SceneOptions scene_options;
   // > 0: the field carries 3 more channels fitted (times this weight) to the training images at latent
   // resolution, and drops them when written (prepare_latent_training's rgb_guide).
   double rgb_guide = 0;
-  int downscale = 1, test_every = 8, sh_degree = kDefaultLatentShDegree;
-  int train_views = 0;  // few-shot: K evenly spaced training views (SceneOptions::train_views); 0 = all
+  int sh_degree = kDefaultLatentShDegree;
   // > 0: a feature field (the feature-gs baseline, src/lrf/feature/): the Gaussians carry this many
   // features, lifted to the latent channels by a 1x1 convolution trained with them. 0: a latent field.
   // kHalfLatentChannels: Feature 3DGS's default, half the autoencoder's latent channels.

@@ -22,9 +22,10 @@ namespace lrf {
 
 namespace {
 nlohmann::json options_json(const LatentTrainOptions& o) {
-  return {{"scene", o.scene},       {"out", o.out},           {"images", o.images},
+  const SceneOptions& so = o.scene_options;
+  return {{"scene", o.scene},       {"out", o.out},           {"images", so.images_dir},
           {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
-          {"downscale", o.downscale}, {"test_every", o.test_every}, {"train_views", o.train_views},
+          {"downscale", so.downscale}, {"test_every", so.test_every}, {"train_views", so.train_views},
           {"feature_dim", o.feature_dim}, {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
           {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"short_run_rates", o.short_run_rates}, {"seed", o.seed},
           {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
@@ -38,6 +39,8 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   if (o.iters < 1) fail_usage("--steps must be at least 1");
   if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
   if (!(o.rgb_guide >= 0)) fail_usage("--rgb-guide must be 0 (off) or a positive weight");
+  if (!o.scene_options.test_list.empty() || !o.scene_options.format.empty())
+    fail_usage("--test-list and --format are not available with --space latent yet");
   LatentInit init = parse_latent_init(o.init);
   if (o.feature_dim != 0 && o.feature_dim != kHalfLatentChannels && (o.feature_dim < 1 || o.feature_dim > kMaxFeatureDim))
     fail_usage("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(o.feature_dim));
@@ -45,8 +48,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
     fail_usage("--init rgb chooses latent features; a feature field (--feature-dim) starts from constant features");
   const auto lock = splat::prepare_output_dir(o.out, o.force, o.resume);
 
-  EncodedScene encoded = load_encoded_scene({o.scene, o.images, o.downscale, o.test_every, o.train_views,
-                                             o.autoencoder, o.encoder, o.cache_dir});
+  EncodedScene encoded = load_encoded_scene({o.scene, o.scene_options, o.autoencoder, o.encoder, o.cache_dir});
   const SceneOptions& so = encoded.options;
   const Scene& scene = encoded.scene;
   auto& ae = encoded.autoencoder;

@@ -26,9 +26,10 @@ namespace lrf::nerf {
 constexpr int64_t kDefaultNerfIters = 10000;
 
 struct LatentNerfOptions {
-  std::string scene, out, images, autoencoder = "taef2", encoder, cache_dir;
-  int downscale = 1, test_every = 8;
-  int train_views = 0;  // few-shot: K evenly spaced training views (SceneOptions::train_views); 0 = all
+  std::string scene, out, autoencoder = "taef2", encoder, cache_dir;
+  // The image folder, downscale, test split and few-shot training views (train_views: K evenly spaced
+  // training views; 0 = all), as for latent Gaussian fields: cropped to multiples of 8, no test list.
+  SceneOptions scene_options;
   int64_t iters = kDefaultNerfIters, checkpoint_every = 1000;
   int rays = 1024;       // rays per step
   int samples = 32;      // coarse samples per ray, and as many fine ones

@@ -33,9 +33,9 @@ constexpr int64_t kLogEvery = 10;
 
 nlohmann::json options_json(const LatentNerfOptions& o) {
   return {{"scene", o.scene},           {"out", o.out},
-          {"images", o.images},         {"autoencoder", o.autoencoder},
-          {"encoder", o.encoder},       {"downscale", o.downscale},
-          {"test_every", o.test_every}, {"train_views", o.train_views},
+          {"images", o.scene_options.images_dir},         {"autoencoder", o.autoencoder},
+          {"encoder", o.encoder},       {"downscale", o.scene_options.downscale},
+          {"test_every", o.scene_options.test_every}, {"train_views", o.scene_options.train_views},
           {"iters", o.iters},           {"checkpoint_every", o.checkpoint_every},
           {"rays", o.rays},             {"samples", o.samples},
           {"log2_table", o.log2_table}, {"seed", o.seed},
@@ -82,6 +82,8 @@ void check_options(const LatentNerfOptions& o) {
   if (o.samples < 2 || o.samples > 1024) fail_usage("--samples must be between 2 and 1024");
   if (o.log2_table < 10 || o.log2_table > 24) fail_usage("--hash-log2 must be between 10 and 24");
   if (o.checkpoint_every < 0) fail_usage("--checkpoint-every must be 0 (only at the end) or positive");
+  if (!o.scene_options.test_list.empty() || !o.scene_options.format.empty())
+    fail_usage("--test-list and --format are not available with --space latent-nerf yet");
 }
 
 }  // namespace
@@ -94,8 +96,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   const auto lock = prepare_nerf_output(o);
   reset_peak_memory();  // this job's own peak, when another ran before it in this process (lrf compare)
 
-  EncodedScene encoded = load_encoded_scene({o.scene, o.images, o.downscale, o.test_every, o.train_views,
-                                             o.autoencoder, o.encoder, o.cache_dir});
+  EncodedScene encoded = load_encoded_scene({o.scene, o.scene_options, o.autoencoder, o.encoder, o.cache_dir});
   const Scene& scene = encoded.scene;
   auto& ae = encoded.autoencoder;
   const LatentRange range = compute_latent_range(encoded.latents);
@@ -241,12 +242,12 @@ LatentNerfOptions recorded_nerf_options(const std::string& out) {
     const auto& j = config.at("options");
     o.scene = j.at("scene").get<std::string>();
     o.out = out;
-    o.images = j.at("images").get<std::string>();
+    o.scene_options.images_dir = j.at("images").get<std::string>();
     o.autoencoder = j.at("autoencoder").get<std::string>();
     o.encoder = j.at("encoder").get<std::string>();
-    o.downscale = j.at("downscale").get<int>();
-    o.test_every = j.at("test_every").get<int>();
-    o.train_views = j.at("train_views").get<int>();
+    o.scene_options.downscale = j.at("downscale").get<int>();
+    o.scene_options.test_every = j.at("test_every").get<int>();
+    o.scene_options.train_views = j.at("train_views").get<int>();
     o.iters = j.at("iters").get<int64_t>();
     o.checkpoint_every = j.at("checkpoint_every").get<int64_t>();
     o.rays = j.at("rays").get<int>();

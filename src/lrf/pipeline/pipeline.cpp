@@ -145,9 +145,9 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, con
   LatentTrainOptions l;
   l.scene = scene;
   l.out = dir;
-  l.images = resolution.images;
-  l.downscale = resolution.downscale;
-  l.train_views = train_views;
+  l.scene_options.images_dir = resolution.images;
+  l.scene_options.downscale = resolution.downscale;
+  l.scene_options.train_views = train_views;
   l.autoencoder = o.autoencoder;
   l.encoder = encoder;
   l.cache_dir = o.cache_dir;
