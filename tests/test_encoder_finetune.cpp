@@ -255,4 +255,26 @@ TEST(EncoderFinetune, BadInputIsReported) {
   EXPECT_NE(r.output.find("missing"), std::string::npos);
 }
 
+// The command line takes lrf pipeline's per-scene resolutions (PATH:--images=DIR) and records them as the
+// pipeline's Stage I does; a bad one is a usage error before any work.
+TEST(EncoderFinetune, CommandLineTakesPerSceneResolutions) {
+  lrf::test::TempDir dir("stage1_spec");
+  const std::string common = " --autoencoder " + taef2() + " --max-side 0 --crop 48 --steps 2 --lr 3e-4 -o ";
+  auto r = lrf::test::run_lrf("finetune-encoder --scenes " + train_scene() + ":--images=images" + common +
+                              (dir / "enc.safetensors"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto record = lrf::read_json_file(dir / "enc.json");
+  EXPECT_EQ(record["options"]["scenes"], nlohmann::json::array({train_scene()}));
+  EXPECT_EQ(record["options"]["scene_resolutions"], nlohmann::json::parse(R"([{"downscale": 0, "images": "images"}])"));
+
+  r = lrf::test::run_lrf("finetune-encoder --scenes " + train_scene() + ":--imgs=images" + common + (dir / "bad.safetensors"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--imgs"), std::string::npos) << r.output;
+  r = lrf::test::run_lrf("finetune-encoder --scenes " + train_scene() + ":--images=nowhere" + common +
+                         (dir / "bad.safetensors"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("nowhere"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir / "bad.safetensors"));
+}
+
 }  // namespace

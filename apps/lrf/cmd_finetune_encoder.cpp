@@ -5,8 +5,24 @@
 #include "command.h"
 #include "distributed_flags.h"
 #include "lrf/finetune/encoder_finetune.h"
+#include "lrf/scene/scene_spec.h"
 
 namespace {
+
+// --scenes PATH:--images=DIR:--downscale=N: the paths stay in `scenes`; the resolutions are recorded only
+// when some scene has one, as lrf pipeline records its Stage I.
+void split_scene_specs(lrf::EncoderFinetuneOptions& o) {
+  std::vector<lrf::SceneResolution> resolutions;
+  bool any = false;
+  for (std::string& argument : o.scenes) {
+    const lrf::SceneSpec spec = lrf::parse_scene_spec(argument);
+    lrf::check_scene_spec_folders(spec, argument);
+    any = any || !spec.resolution.is_default();
+    resolutions.push_back(spec.resolution);
+    argument = spec.path;
+  }
+  if (any) o.scene_resolutions = resolutions;
+}
 
 lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
   auto* cmd = root.add_subcommand(
@@ -17,7 +33,12 @@ lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
       "--resume continues from. Data parallel over several processes or hosts: start it with `lrf launch -n N --` or "
       "srun; --pairs stays the global batch");
   auto o = std::make_shared<lrf::EncoderFinetuneOptions>();
-  cmd->add_option("--scenes", o->scenes, "Training scenes (COLMAP, LLFF or NeRF folders with poses)")->required();
+  cmd->add_option("--scenes", o->scenes,
+                  "Training scenes (COLMAP, LLFF or NeRF folders with poses), each optionally followed by its own "
+                  "resolution as in lrf pipeline: PATH:--images=DIR (the scene's image folder DIR, e.g. "
+                  "images_masked), PATH:--downscale=N (its images area-resized by N instead of --max-side's "
+                  "factor), or both")
+      ->required();
   cmd->add_option("-o,--output", o->out, "Fine-tuned encoder to write (.safetensors)")->required();
   cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder (name, folder or weights file, as for `lrf ae`)")
       ->capture_default_str();
@@ -56,6 +77,7 @@ lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
   auto dist = std::make_shared<lrf::DistributedOptions>();
   lrf::cli::add_distributed_flags(cmd, dist.get());
   lrf::cli::on_run(cmd, [o, dist] {
+    split_scene_specs(*o);
     o->distributed = lrf::cli::resolve_distributed_flags(*dist);
     lrf::EncoderFinetuneResult r = lrf::finetune_encoder(*o);
     if (!r.main_rank) return 0;
