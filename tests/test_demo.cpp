@@ -40,6 +40,11 @@ TEST(Demo, RunsEveryStageAndJudgesOnlyTheSceneNoStageSaw) {
   ASSERT_EQ(p["eval_scenes"].size(), 1u);
   const std::string judged = p["eval_scenes"][0];
   EXPECT_EQ(fs::path(judged).filename(), "synthetic-held-out");
+  // Stage III with the round-trip term lrf recommends, not the paper's bare loss.
+  for (const char* d : {"decoder-stock.json", "decoder-ft.json"})
+    EXPECT_EQ(lrf::read_json_file(dir / ("out/pipeline/stage3/" + std::string(d)))["options"]["weight_roundtrip"],
+              lrf::kRecommendedWeightRoundtrip)
+        << d;
 
   // A second run refuses the finished folder rather than overwriting it.
   const auto again = lrf::test::run_lrf(toy_demo(dir / "out"));

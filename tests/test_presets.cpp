@@ -40,6 +40,8 @@ TEST(Presets, QuickAndPaperHoldTheDocumentedValues) {
   EXPECT_EQ(setting_of(paper, "--steps")->value, "30000");
   EXPECT_EQ(setting_of(lrf::find_preset(lrf::compare_presets(), "paper"), "--steps")->value, "30000");
   EXPECT_EQ(setting_of(lrf::find_preset(lrf::pipeline_presets(), "paper"), "--field-steps")->value, "30000");
+  // The paper preset keeps the paper's Stage III loss; the default adds the round-trip term.
+  EXPECT_EQ(setting_of(lrf::find_preset(lrf::pipeline_presets(), "paper"), "--stage3-weight-roundtrip")->value, "0");
   EXPECT_EQ(setting_of(lrf::find_preset(lrf::compare_presets(), "quick"), "--refine-steps")->value, "200");
   EXPECT_EQ(setting_of(lrf::find_preset(lrf::pipeline_presets(), "quick"), "--stage1-steps")->value, "40");
 }

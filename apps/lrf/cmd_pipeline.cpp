@@ -60,7 +60,8 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
       ->capture_default_str();
   cmd->add_option("--stage3-weight-roundtrip", o->stage3_weight_roundtrip,
                   "Stage III: weight of an L1 term on encoded training images that keeps the decoder decoding ordinary "
-                  "latents (0: none, the paper's loss)")
+                  "latents (0: none, the paper's loss, which on three LLFF scenes lost 0.5 dB against the stock decoder "
+                  "where this default gained 0.5)")
       ->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of every stage")->capture_default_str();
   cmd->add_option("--eval-train-views", o->eval_train_views,

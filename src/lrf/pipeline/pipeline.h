@@ -21,6 +21,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/encoder_finetune.h"
 #include "lrf/refine/refine.h"
 
@@ -36,7 +37,8 @@ struct PipelineOptions {
   double stage3_lr = 0;             // 0: the decoder fine-tuning's default
   int stage3_crop = 0;              // 0: the decoder fine-tuning's default
   double stage3_lambda_ssim = 0;    // Stage III's D-SSIM share (0: the paper's pure L1)
-  double stage3_weight_roundtrip = 0;  // Stage III's encoded-image term (0: none, the paper's loss)
+  // Stage III's encoded-image term (0: none, the paper's loss; DecoderFinetuneOptions' comment says why 4).
+  double stage3_weight_roundtrip = kRecommendedWeightRoundtrip;
   uint64_t seed = 0;
   int eval_train_views = 0;         // few-shot: the evaluation scenes' fields see K training views (0 = all)
   RefineOptions refine;             // the refined rows: steps, crop, learning rates (the rest is set here)

@@ -52,7 +52,8 @@ const PresetTable& pipeline_presets() {
       {kDefaultPreset, kDefaultSummary, {}},
       {"paper", kPaperSummary,
        {{"--field-steps", "30000", "3DGS's and the paper's Stage II schedule for every field", {}},
-        {"--stage1-crop", "512", "the paper's 512x512 Stage I crops", {}}}},
+        {"--stage1-crop", "512", "the paper's 512x512 Stage I crops", {}},
+        {"--stage3-weight-roundtrip", "0", "the paper's Stage III loss (no round-trip term)", {}}}},
   };
   return table;
 }
