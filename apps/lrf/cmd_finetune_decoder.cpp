@@ -12,7 +12,8 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
   auto* cmd = root.add_subcommand(
       "finetune-decoder",
       "Stage III: fine-tune an autoencoder's decoder on latents rendered by fitted latent fields (their training and "
-      "held-out views) against the real images: weight-train x L1_train + weight-novel x L1_novel, encoder untouched. "
+      "held-out views) against the real images: weight-train x L1_train + weight-novel x L1_novel + weight-roundtrip "
+      "x L1 of the training images encoded and decoded, encoder untouched. "
       "Writes the decoder as .safetensors (use it with --decoder), a run record OUT.json, and a checkpoint "
       "OUT.checkpoint.safetensors that --resume continues from. Data parallel over several processes or hosts: start it "
       "with `lrf launch -n N --` or srun; --batch stays the global batch");
