@@ -36,17 +36,28 @@ std::string field(const std::string& root, unsigned seed) {
   return out;
 }
 
-// Mean L1 between decoded rendered latents and the real images over a field's held-out views.
-double heldout_l1(const std::string& field_dir, const std::string& decoder) {
+// Mean L1 between `decoded(autoencoder, run, view, image)` and the real image over a field's held-out
+// views, with `decoder` in place of the autoencoder's own.
+template <typename Decoded>
+double heldout_mean_l1(const std::string& field_dir, const std::string& decoder, Decoded decoded) {
   torch::NoGradGuard no_grad;
   lrf::LatentRun run = lrf::open_latent_run(field_dir);
   auto ae = lrf::load_autoencoder(taef2(), "", decoder);
   double sum = 0;
   for (int i : run.scene.test_indices) {
-    at::Tensor decoded = ae->decode(run.range.denormalize(lrf::render_latent(run, i)).unsqueeze(0))[0];
-    sum += (decoded - lrf::image_to_batch(run.scene.load_image(i))[0]).abs().mean().item<double>();
+    const at::Tensor image = lrf::image_to_batch(run.scene.load_image(i));
+    const at::Tensor reconstruction = decoded(*ae, run, i, image);
+    sum += (reconstruction - image).abs().mean().item<double>();
   }
   return sum / run.scene.test_indices.size();
+}
+
+// Decoded rendered latents against the real images.
+double heldout_l1(const std::string& field_dir, const std::string& decoder) {
+  return heldout_mean_l1(field_dir, decoder,
+                         [](lrf::Autoencoder& ae, const lrf::LatentRun& run, int i, const at::Tensor&) {
+                           return ae.decode(run.range.denormalize(lrf::render_latent(run, i)).unsqueeze(0));
+                         });
 }
 
 class DecoderFinetune : public ::testing::Test {
@@ -109,17 +120,12 @@ TEST_F(DecoderFinetune, SsimMixIsRecordedOnlyWhenUsedAndStillLowersHeldOutL1) {
   EXPECT_NE(error_of([&] { lrf::finetune_decoder(bad); }).find("--lambda-ssim"), std::string::npos);
 }
 
-// Mean L1 of the encode-decode round trip over a field's held-out views.
+// The encode-decode round trip of the real images.
 double heldout_roundtrip_l1(const std::string& field_dir, const std::string& decoder) {
-  torch::NoGradGuard no_grad;
-  lrf::LatentRun run = lrf::open_latent_run(field_dir);
-  auto ae = lrf::load_autoencoder(taef2(), "", decoder);
-  double sum = 0;
-  for (int i : run.scene.test_indices) {
-    const at::Tensor image = lrf::image_to_batch(run.scene.load_image(i));
-    sum += (ae->decode(ae->encode(image)) - image).abs().mean().item<double>();
-  }
-  return sum / run.scene.test_indices.size();
+  return heldout_mean_l1(field_dir, decoder,
+                         [](lrf::Autoencoder& ae, const lrf::LatentRun&, int, const at::Tensor& image) {
+                           return ae.decode(ae.encode(image));
+                         });
 }
 
 // The round-trip term (encoded training images beside the rendered latents) keeps the decoder decoding
