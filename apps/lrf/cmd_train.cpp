@@ -70,9 +70,9 @@ int run_train_latent(const TrainOptions& o, const lrf::InitPointsOptions& points
   // A negative count is compare's "half the latent channels", met here only in a run being resumed.
   if (o.feature_dim < 0 && !o.resume) lrf::fail_usage("--feature-dim must be 0 (a latent field) or a feature count");
   l.feature_dim = o.feature_dim;
-  if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
-    lrf::fail_usage("--test-list, --crop8 and --format are not available with --space latent yet (latent views are always "
-              "cropped to multiples of 8)");
+  // --test-list and --format are refused by the job itself (require_latent_scene_options).
+  if (o.scene_options.crop_to_multiple_of_8)
+    lrf::fail_usage("--crop8 does not apply to --space latent: latent views are always cropped to multiples of 8");
   l.sh_degree = o.sh_degree_set ? o.sh_degree : lrf::kDefaultLatentShDegree;
   l.iters = o.iters;
   l.max_gaussians = o.max_gaussians;
@@ -95,9 +95,8 @@ int run_train_nerf(const TrainOptions& o, const lrf::InitPointsOptions& points) 
       o.densify_grad != lrf::splat::DensifyOptions{}.grad_threshold)
     lrf::fail_usage("--mip, --sh-degree, --max-gaussians, --densify-grad, --sparse-adam, --white-background and --init apply to Gaussian "
               "fields, not to --space latent-nerf");
-  if (!o.scene_options.test_list.empty() || o.scene_options.crop_to_multiple_of_8 || !o.scene_options.format.empty())
-    lrf::fail_usage("--test-list, --crop8 and --format are not available with --space latent-nerf (latent views are always "
-              "cropped to multiples of 8)");
+  if (o.scene_options.crop_to_multiple_of_8)
+    lrf::fail_usage("--crop8 does not apply to --space latent-nerf: latent views are always cropped to multiples of 8");
   lrf::nerf::LatentNerfOptions n;
   n.scene = o.scene;
   n.out = o.out;

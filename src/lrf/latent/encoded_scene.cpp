@@ -7,6 +7,11 @@
 
 namespace lrf {
 
+void require_latent_scene_options(const SceneOptions& options, const std::string& space) {
+  if (!options.test_list.empty() || !options.format.empty())
+    fail_usage("--test-list and --format are not available with --space " + space + " yet");
+}
+
 EncodedScene load_encoded_scene(const EncodedSceneRequest& r) {
   EncodedScene out;
   out.options = r.options;

@@ -33,4 +33,8 @@ struct EncodedScene {
 // Fails naming the scene when it has no training views.
 EncodedScene load_encoded_scene(const EncodedSceneRequest& request);
 
+// Throws lrf::UsageError when `options` ask for what latent runs (`--space` `space`) do not read yet: a test
+// list or a forced format. Called by each job before it creates its output.
+void require_latent_scene_options(const SceneOptions& options, const std::string& space);
+
 }  // namespace lrf

@@ -39,8 +39,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   if (o.iters < 1) fail_usage("--steps must be at least 1");
   if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
   if (!(o.rgb_guide >= 0)) fail_usage("--rgb-guide must be 0 (off) or a positive weight");
-  if (!o.scene_options.test_list.empty() || !o.scene_options.format.empty())
-    fail_usage("--test-list and --format are not available with --space latent yet");
+  require_latent_scene_options(o.scene_options, "latent");
   LatentInit init = parse_latent_init(o.init);
   if (o.feature_dim != 0 && o.feature_dim != kHalfLatentChannels && (o.feature_dim < 1 || o.feature_dim > kMaxFeatureDim))
     fail_usage("--feature-dim must be 1.." + std::to_string(kMaxFeatureDim) + ", got " + std::to_string(o.feature_dim));

@@ -82,8 +82,7 @@ void check_options(const LatentNerfOptions& o) {
   if (o.samples < 2 || o.samples > 1024) fail_usage("--samples must be between 2 and 1024");
   if (o.log2_table < 10 || o.log2_table > 24) fail_usage("--hash-log2 must be between 10 and 24");
   if (o.checkpoint_every < 0) fail_usage("--checkpoint-every must be 0 (only at the end) or positive");
-  if (!o.scene_options.test_list.empty() || !o.scene_options.format.empty())
-    fail_usage("--test-list and --format are not available with --space latent-nerf yet");
+  require_latent_scene_options(o.scene_options, "latent-nerf");
 }
 
 }  // namespace
