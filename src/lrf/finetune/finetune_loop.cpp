@@ -11,6 +11,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
+#include "lrf/core/run_loop.h"
 #include "lrf/core/stop_request.h"
 #include "lrf/distributed/gradient_averager.h"
 #include "lrf/finetune/finetune_output.h"
@@ -108,14 +109,22 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   result.first_step = start;
   std::optional<Progress> progress;
   if (g.is_main()) progress.emplace(l.task, l.steps, 2.0, start);
-  // Ctrl-C / SIGTERM: a checkpoint after the step, then Interrupted. The request travels with the step's
-  // losses, so that every rank of a data-parallel group stops after the same step.
-  const StopOnSignals stop_on_signals;
-  for (int64_t step = start; step < l.steps; ++step) {
+  int64_t step = start;
+  bool stop = false;
+  RunLoop loop;
+  loop.total_steps = l.steps;
+  loop.first_step = start;
+  loop.checkpoint_every = l.checkpoint_every;
+  loop.checkpoint = l.checkpoint;
+  loop.progress = progress ? &*progress : nullptr;
+  loop.save = save_checkpoint;
+  // A stop request travels with the step's losses, so that every rank of a data-parallel group stops after
+  // the same step.
+  loop.stop_requested = [&] { return stop; };
+  loop.step = [&] {
     adam.zero_grad();
     FinetuneStepLoss part;
     std::vector<double> values;
-    bool stop = false;
     try {
       part = l.step_loss(step);
       values.push_back(part.loss.item<double>());
@@ -144,21 +153,17 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
       g.fail_step("step " + std::to_string(step + 1) + " (backward and gradient all-reduce)", e.what(), advice());
     }
     adam.step();
+    ++step;
     result.last_loss = values[0];
-    std::vector<std::pair<std::string, double>> shown = {{"loss", values[0]}};
+    LoopStep shown{step, {{"loss", values[0]}}};
     for (size_t k = 0; k < part.metrics.size(); ++k) {
       result.last_metrics[part.metrics[k].first] = values[k + 1];
-      shown.emplace_back(part.metrics[k].first, values[k + 1]);
+      shown.shown.emplace_back(part.metrics[k].first, values[k + 1]);
     }
-    if (progress) progress->update(step + 1, shown);
-    if (l.checkpoint_every > 0 && (step + 1) % l.checkpoint_every == 0 && step + 1 < l.steps) save_checkpoint();
-    if (stop && step + 1 < l.steps) {
-      if (checkpointed != adam.steps()) save_checkpoint();
-      throw_interrupted(step + 1, l.checkpoint);
-    }
-  }
+    return shown;
+  };
+  run_loop(loop);
   if (progress) progress->finish();
-  save_checkpoint();
   result.steps = l.steps;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   result.total_seconds = seconds_so_far();

@@ -1,7 +1,6 @@
 // lrf train --space latent-nerf: the training run on disk (see nerf_run.h).
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <sstream>
 
@@ -9,12 +8,12 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
-#include "lrf/core/expected_time.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
-#include "lrf/core/stop_request.h"
+#include "lrf/core/run_loop.h"
+#include "lrf/core/train_log.h"
 #include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"
@@ -28,7 +27,8 @@ namespace fs = std::filesystem;
 namespace lrf::nerf {
 namespace {
 
-constexpr const char* kLogHeader = "step,loss,psnr,elapsed_s,sampling_ms,forward_ms,backward_ms,adam_ms\n";
+constexpr const char* kLogHeader = "step,loss,psnr,elapsed_s,sampling_ms,forward_ms,backward_ms,adam_ms";
+constexpr int kElapsedColumn = 3;
 constexpr int64_t kLogEvery = 10;
 
 nlohmann::json options_json(const LatentNerfOptions& o) {
@@ -41,26 +41,6 @@ nlohmann::json options_json(const LatentNerfOptions& o) {
           {"log2_table", o.log2_table}, {"seed", o.seed},
           {"resume", o.resume},         {"force", o.force},
           {"init_points", o.init_points.mode}, {"preset", o.preset}};
-}
-
-// The rows of an earlier log up to `step`, and the elapsed time of the last of them (a resumed run
-// continues both).
-std::string log_rows_until(const std::string& path, int64_t step, double* elapsed) {
-  std::ifstream in(path);
-  std::string line, rows;
-  *elapsed = 0;
-  if (!std::getline(in, line)) return "";
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    std::istringstream fields(line);
-    std::string field;
-    std::vector<std::string> values;
-    while (std::getline(fields, field, ',')) values.push_back(field);
-    if (values.size() < 4 || std::stoll(values[0]) > step) break;
-    *elapsed = std::stod(values[3]);
-    rows += line + "\n";
-  }
-  return rows;
 }
 
 // Refuses an existing folder unless --force or --resume (see splat::prepare_output_dir); --force removes a
@@ -162,31 +142,34 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
 
   NerfTrainer trainer(std::move(field), training_rays(latent_cameras, targets), to);
   const std::string checkpoint = nerf_checkpoint_path(o.out), field_path = nerf_field_path(o.out);
-  const std::string log_path = (fs::path(o.out) / "train_log.csv").string();
-  std::string log_rows;
+  TrainLog log((fs::path(o.out) / "train_log.csv").string(), kLogHeader, kElapsedColumn);
   double elapsed_before = 0;
   if (o.resume) {
     trainer.load_checkpoint(checkpoint);
-    log_rows = log_rows_until(log_path, trainer.steps_done(), &elapsed_before);
+    elapsed_before = log.resume(trainer.steps_done());
     log_info("resuming " + o.out + " at step " + std::to_string(trainer.steps_done()));
   }
   log_info("latent NeRF: " + std::to_string(trainer.field().parameter_count()) + " parameters, " +
            std::to_string(o.rays) + " rays x " + std::to_string(spec.samples()) + " samples per step");
+
+  Progress progress("train-latent-nerf", o.iters, 2.0, trainer.steps_done());
+  double loss_sum = 0, psnr_sum = 0, time_sum[4] = {0, 0, 0, 0}, last_loss = 0;
+  int64_t count = 0;
+  RunLoop loop;
+  loop.total_steps = o.iters;
+  loop.first_step = trainer.steps_done();
+  loop.checkpoint_every = o.checkpoint_every;
+  loop.checkpoint = checkpoint;
+  loop.progress = &progress;
+  loop.expected_time_note = "training only; scoring adds its own time";
   // The log first: killed before the checkpoint is written, a resumed run drops the log's rows past the
   // previous checkpoint; the other way round it would lose rows.
-  auto save = [&] {
-    write_file_atomic(log_path, kLogHeader + log_rows);
+  loop.save = [&] {
+    log.write();
     trainer.save_checkpoint(checkpoint);
     trainer.field().save(field_path, {{"step", std::to_string(trainer.steps_done())}});
   };
-
-  Progress progress("train-latent-nerf", o.iters, 2.0, trainer.steps_done());
-  const int64_t first_step = trainer.steps_done();
-  ExpectedTimeNotice expected(o.iters - first_step, "training only; scoring adds its own time");
-  const StopOnSignals stop_on_signals;  // Ctrl-C / SIGTERM: a checkpoint at the next step, then Interrupted
-  double loss_sum = 0, psnr_sum = 0, time_sum[4] = {0, 0, 0, 0}, last_loss = 0;
-  int64_t count = 0;
-  while (!trainer.done()) {
+  loop.step = [&] {
     const NerfStepResult r = trainer.step();
     loss_sum += r.loss;
     psnr_sum += r.psnr;
@@ -200,21 +183,14 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
           << psnr_sum / double(count) << "," << std::setprecision(6) << elapsed_before + progress.elapsed_seconds()
           << std::setprecision(4);
       for (double t : time_sum) row << "," << 1000.0 * t / double(count);
-      row << "\n";
-      log_rows += row.str();
+      log.add(row.str());
       loss_sum = psnr_sum = 0;
       for (double& t : time_sum) t = 0;
       count = 0;
     }
-    progress.update(r.step, {{"loss", r.loss}, {"psnr", r.psnr}});
-    expected.observe(r.step - first_step, progress.elapsed_seconds());
-    if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
-    if (stop_signal() && !trainer.done()) {
-      save();
-      throw_interrupted(trainer.steps_done(), checkpoint);
-    }
-  }
-  save();
+    return LoopStep{r.step, {{"loss", r.loss}, {"psnr", r.psnr}}};
+  };
+  run_loop(loop);
   progress.finish({{"loss", last_loss}});
   LatentNerfResult result;
   result.steps = trainer.steps_done();

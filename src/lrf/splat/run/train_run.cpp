@@ -3,7 +3,6 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <sstream>
 
@@ -13,7 +12,8 @@
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/run_info.h"
-#include "lrf/core/stop_request.h"
+#include "lrf/core/run_loop.h"
+#include "lrf/core/train_log.h"
 #include "lrf/splat/ply_io.h"
 
 namespace fs = std::filesystem;
@@ -23,20 +23,8 @@ namespace {
 
 constexpr const char* kLogHeader =
     "step,loss,psnr,gaussians,elapsed_s,render_ms,loss_ms,backward_ms,adam_ms,densify_ms,loss_backward_ms,"
-    "extra_adam_ms\n";
-
-// The rows of an earlier log up to `step` (a resumed run continues it); none when there is no such file.
-std::string log_rows_until(const std::string& path, int64_t step) {
-  std::ifstream in(path);
-  std::string line, rows;
-  if (!std::getline(in, line)) return "";
-  while (std::getline(in, line)) {
-    if (line.empty()) continue;
-    if (std::stoll(line.substr(0, line.find(','))) > step) break;
-    rows += line + "\n";
-  }
-  return rows;
-}
+    "extra_adam_ms";
+constexpr int kElapsedColumn = 4;
 
 }  // namespace
 
@@ -94,103 +82,89 @@ OutputFolder prepare_output_dir(const std::string& out, bool force, bool resume)
 
 RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   const std::string ckpt = checkpoint_path(o.out);
-  const std::string log_path = (fs::path(o.out) / "train_log.csv").string();
   const std::string ply_path = (fs::path(o.out) / "point_cloud.ply").string();
   auto write_field = [&] {
     Gaussians field = trainer.export_gaussians();
     write_ply(ply_path, o.exported ? o.exported(std::move(field)) : field);
   };
-  const std::string score_path = (fs::path(o.out) / o.score_file).string();
   const bool scoring = o.score_every > 0 && o.score;
-  std::string log_rows, score_rows;
+  TrainLog log((fs::path(o.out) / "train_log.csv").string(), kLogHeader, kElapsedColumn);
+  TrainLog scores((fs::path(o.out) / o.score_file).string(), o.score_header);
   double elapsed_before = 0;
   if (o.resume) {
     trainer.load_checkpoint(ckpt);
     if (o.load_extra) o.load_extra();
-    log_rows = log_rows_until(log_path, trainer.steps_done());
-    if (scoring) score_rows = log_rows_until(score_path, trainer.steps_done());
-    if (!log_rows.empty()) {
-      auto last = log_rows.substr(log_rows.rfind('\n', log_rows.size() - 2) + 1);
-      // Column 5 is the elapsed time.
-      std::istringstream fields(last);
-      std::string field;
-      for (int i = 0; i < 5 && std::getline(fields, field, ','); ++i) {
-      }
-      elapsed_before = std::stod(field);
-    }
+    elapsed_before = log.resume(trainer.steps_done());
+    if (scoring) scores.resume(trainer.steps_done());
     log_info("resuming " + o.out + " at step " + std::to_string(trainer.steps_done()));
   }
   const int64_t total = trainer.options().iterations;
   Progress progress(o.task, total, 2.0, trainer.steps_done());
-  const int64_t first_step = trainer.steps_done();
-  ExpectedTimeNotice expected(total - first_step, kGaussianRunNote);
-  // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
-  // The log goes first: killed before the checkpoint is written, a resumed run drops the log's rows past
-  // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.
-  auto save = [&]() {
-    write_file_atomic(log_path, kLogHeader + log_rows);
-    if (scoring) write_file_atomic(score_path, o.score_header + "\n" + score_rows);
-    trainer.save_checkpoint(ckpt);
-    if (o.save_extra) o.save_extra();
-    write_field();
-  };
 
-  // Ctrl-C or SIGTERM: a checkpoint at the next step boundary, then Interrupted (the CLI exits with 130 / 143).
-  const StopOnSignals stop_on_signals;
   RunSummary summary;
   double loss_sum = 0;
   int64_t loss_count = 0;
   StepTimings time_sum;
   double last_psnr = std::nan("");
-  try {
-    while (!trainer.done()) {
-      auto r = trainer.step();
-      loss_sum += r.loss;
-      ++loss_count;
-      time_sum.render += r.timings.render;
-      time_sum.loss += r.timings.loss;
-      time_sum.backward += r.timings.backward;
-      time_sum.optimizer += r.timings.optimizer;
-      time_sum.densify += r.timings.densify;
-      time_sum.loss_backward += r.timings.loss_backward;
-      time_sum.extra_optimizer += r.timings.extra_optimizer;
-      if (!std::isnan(r.psnr)) last_psnr = r.psnr;
-      summary.last_loss = r.loss;
-      if (r.densified)
-        log_info("step " + std::to_string(r.step) + ": densified " + std::to_string(r.densify.before) + " -> " +
-                 std::to_string(r.densify.after) + " Gaussians (" + std::to_string(r.densify.cloned) + " cloned, " +
-                 std::to_string(r.densify.split) + " split, " + std::to_string(r.densify.pruned) + " pruned)");
-      if (r.step % o.log_every == 0 || trainer.done()) {
-        std::ostringstream row;
-        row << r.step << "," << std::setprecision(6) << loss_sum / double(loss_count) << ","
-            << std::setprecision(4) << last_psnr << "," << r.gaussians << "," << std::setprecision(6)
-            << elapsed_before + progress.elapsed_seconds() << std::setprecision(4);
-        for (double t : {time_sum.render, time_sum.loss, time_sum.backward, time_sum.optimizer, time_sum.densify,
-                         time_sum.loss_backward, time_sum.extra_optimizer})
-          row << "," << t / double(loss_count);
-        row << "\n";
-        log_rows += row.str();
-        loss_sum = 0;
-        loss_count = 0;
-        time_sum = StepTimings();
-      }
-      if (scoring && (r.step % o.score_every == 0 || trainer.done())) {
-        const auto t0 = std::chrono::steady_clock::now();
-        score_rows += std::to_string(r.step) + "," + o.score(r.step, elapsed_before + progress.elapsed_seconds()) + "\n";
-        // Written at once, so that a curve can be watched as it grows; a resumed run drops the rows past its
-        // checkpoint.
-        write_file_atomic(score_path, o.score_header + "\n" + score_rows);
-        progress.exclude(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-      }
-      progress.update(r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}});
-      expected.observe(r.step - first_step, progress.elapsed_seconds());
-      if (o.checkpoint_every > 0 && r.step % o.checkpoint_every == 0 && !trainer.done()) save();
-      if (stop_signal() && !trainer.done()) {
-        save();
-        throw_interrupted(trainer.steps_done(), ckpt);
-      }
+  RunLoop loop;
+  loop.total_steps = total;
+  loop.first_step = trainer.steps_done();
+  loop.checkpoint_every = o.checkpoint_every;
+  loop.checkpoint = ckpt;
+  loop.progress = &progress;
+  loop.expected_time_note = kGaussianRunNote;
+  // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
+  // The log goes first: killed before the checkpoint is written, a resumed run drops the log's rows past
+  // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.
+  loop.save = [&] {
+    log.write();
+    if (scoring) scores.write();
+    trainer.save_checkpoint(ckpt);
+    if (o.save_extra) o.save_extra();
+    write_field();
+  };
+  loop.step = [&] {
+    auto r = trainer.step();
+    loss_sum += r.loss;
+    ++loss_count;
+    time_sum.render += r.timings.render;
+    time_sum.loss += r.timings.loss;
+    time_sum.backward += r.timings.backward;
+    time_sum.optimizer += r.timings.optimizer;
+    time_sum.densify += r.timings.densify;
+    time_sum.loss_backward += r.timings.loss_backward;
+    time_sum.extra_optimizer += r.timings.extra_optimizer;
+    if (!std::isnan(r.psnr)) last_psnr = r.psnr;
+    summary.last_loss = r.loss;
+    if (r.densified)
+      log_info("step " + std::to_string(r.step) + ": densified " + std::to_string(r.densify.before) + " -> " +
+               std::to_string(r.densify.after) + " Gaussians (" + std::to_string(r.densify.cloned) + " cloned, " +
+               std::to_string(r.densify.split) + " split, " + std::to_string(r.densify.pruned) + " pruned)");
+    if (r.step % o.log_every == 0 || trainer.done()) {
+      std::ostringstream row;
+      row << r.step << "," << std::setprecision(6) << loss_sum / double(loss_count) << "," << std::setprecision(4)
+          << last_psnr << "," << r.gaussians << "," << std::setprecision(6)
+          << elapsed_before + progress.elapsed_seconds() << std::setprecision(4);
+      for (double t : {time_sum.render, time_sum.loss, time_sum.backward, time_sum.optimizer, time_sum.densify,
+                       time_sum.loss_backward, time_sum.extra_optimizer})
+        row << "," << t / double(loss_count);
+      log.add(row.str());
+      loss_sum = 0;
+      loss_count = 0;
+      time_sum = StepTimings();
     }
-    save();
+    if (scoring && (r.step % o.score_every == 0 || trainer.done())) {
+      const auto t0 = std::chrono::steady_clock::now();
+      scores.add(std::to_string(r.step) + "," + o.score(r.step, elapsed_before + progress.elapsed_seconds()));
+      // Written at once, so that a curve can be watched as it grows; a resumed run drops the rows past its
+      // checkpoint.
+      scores.write();
+      progress.exclude(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+    }
+    return LoopStep{r.step, {{"loss", r.loss}, {"psnr", last_psnr}, {"gaussians", double(r.gaussians)}}};
+  };
+  try {
+    run_loop(loop);
   } catch (const TrainingDiverged& e) {
     log_error(e.what());
     if (fs::exists(ckpt)) {
