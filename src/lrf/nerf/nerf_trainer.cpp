@@ -14,6 +14,7 @@
 namespace lrf::nerf {
 namespace {
 
+constexpr const char* kCheckpointFormat = "lrf latent-nerf checkpoint";
 constexpr double kBeta1 = 0.9, kBeta2 = 0.99, kEpsilon = 1e-15;
 
 // splitmix64: a step's seed from the run's seed and the step number.
@@ -24,25 +25,17 @@ uint64_t step_seed(uint64_t seed, int64_t step) {
   return z ^ (z >> 31);
 }
 
-// One Adam update of a tensor; with `lazy`, entries whose gradient is exactly 0 keep value and moments.
-void adam_update(at::Tensor& param, const at::Tensor& grad, at::Tensor& m, at::Tensor& v, double lr, int64_t t,
-                 bool lazy) {
-  float* p = param.data_ptr<float>();
-  const float* g = grad.data_ptr<float>();
-  float* mp = m.data_ptr<float>();
-  float* vp = v.data_ptr<float>();
-  const double c1 = 1.0 - std::pow(kBeta1, double(t)), c2 = 1.0 - std::pow(kBeta2, double(t));
-  const float step_size = static_cast<float>(lr / c1);
-  const float inv_c2 = static_cast<float>(1.0 / c2);
-  const float b1 = float(kBeta1), b2 = float(kBeta2), eps = float(kEpsilon);
-  at::parallel_for(0, param.numel(), 1 << 14, [&](int64_t begin, int64_t end) {
-    for (int64_t i = begin; i < end; ++i) {
-      if (lazy && g[i] == 0.0f) continue;
-      mp[i] = b1 * mp[i] + (1.0f - b1) * g[i];
-      vp[i] = b2 * vp[i] + (1.0f - b2) * g[i] * g[i];
-      p[i] -= step_size * mp[i] / (std::sqrt(vp[i] * inv_c2) + eps);
-    }
-  });
+std::vector<at::Tensor> tensors_of(const NerfField& field) {
+  std::vector<at::Tensor> out;
+  for (const auto& [name, t] : field.named_tensors()) out.push_back(t);
+  return out;
+}
+
+// The hash grid is updated lazily (see the header); the MLPs densely.
+std::vector<bool> lazy_flags(const NerfField& field) {
+  std::vector<bool> out;
+  for (const auto& [name, t] : field.named_tensors()) out.push_back(name == "grid.table");
+  return out;
 }
 
 }  // namespace
@@ -75,14 +68,15 @@ NerfTrainingRays training_rays(const std::vector<Camera>& cameras, const std::ve
 }
 
 NerfTrainer::NerfTrainer(NerfField field, NerfTrainingRays rays, const NerfTrainOptions& options)
-    : field_(std::move(field)), rays_(std::move(rays)), options_(options) {
+    : field_(std::move(field)),
+      adam_(tensors_of(field_), AdamOptions{options.lr, kBeta1, kBeta2, kEpsilon}, lazy_flags(field_)),
+      rays_(std::move(rays)),
+      options_(options) {
   options_.check();
   if (rays_.count() == 0) fail("NeRF training: no training rays");
   if (rays_.targets.size(1) != field_.spec.channels)
     fail("NeRF training: the targets have " + std::to_string(rays_.targets.size(1)) + " channels, the field " +
          std::to_string(field_.spec.channels));
-  m_ = field_.zeros_like();
-  v_ = field_.zeros_like();
 }
 
 double NerfTrainer::learning_rate(int64_t step) const {
@@ -114,32 +108,23 @@ NerfStepResult NerfTrainer::step() {
   if (!std::isfinite(r.loss)) fail("NeRF training diverged at step " + std::to_string(step_ + 1) + " (loss not finite)");
   r.psnr = -10.0 * std::log10(std::max(r.loss, 1e-20));
   auto t1 = Clock::now();
-  adam_step(grads);
+  adam_.set_lr(learning_rate(step_));
+  adam_.step(tensors_of(grads));
   r.optimizer_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
   r.step = ++step_;
   return r;
 }
 
-void NerfTrainer::adam_step(const NerfField& grads) {
-  const double lr = learning_rate(step_);
-  const int64_t t = step_ + 1;
-  auto params = field_.named_tensors(), g = grads.named_tensors(), m = m_.named_tensors(), v = v_.named_tensors();
-  for (size_t k = 0; k < params.size(); ++k)
-    adam_update(params[k].second, g[k].second, m[k].second, v[k].second, lr, t, params[k].first == "grid.table");
-}
-
 void NerfTrainer::save_checkpoint(const std::string& path) const {
-  StateDict tensors;
-  for (const auto& [name, t] : field_.named_tensors()) tensors.insert("field." + name, t);
-  for (const auto& [name, t] : m_.named_tensors()) tensors.insert("adam_m." + name, t);
-  for (const auto& [name, t] : v_.named_tensors()) tensors.insert("adam_v." + name, t);
-  tensors.insert("step", at::full({1}, step_, at::kLong));
-  write_safetensors(path, tensors, {{"format", "lrf latent-nerf checkpoint"}, {"spec", field_.spec.to_json().dump()}});
+  adam_.save(path, {{"format", kCheckpointFormat}, {"spec", field_.spec.to_json().dump()}});
 }
 
 void NerfTrainer::load_checkpoint(const std::string& path) {
   const auto meta = read_safetensors_metadata(path);
   if (!meta.count("spec")) fail(path, "not a latent-nerf checkpoint (no \"spec\" in its metadata)");
+  if (!meta.count("lrf_adam_steps"))
+    fail(path, "a latent-NeRF checkpoint of an earlier lrf, whose optimizer state this one does not read: "
+               "start the run again without --resume");
   nlohmann::json spec;
   try {
     spec = nlohmann::json::parse(meta.at("spec"));
@@ -148,25 +133,17 @@ void NerfTrainer::load_checkpoint(const std::string& path) {
   }
   if (spec != field_.spec.to_json())
     fail(path, "the checkpoint's field was made with other settings (grid, sizes, samples or scene bounds)");
-  const StateDict stored = read_safetensors(path);
-  auto restore = [&](const std::string& prefix, NerfField& into) {
-    for (auto& [name, t] : into.named_tensors()) {
-      const at::Tensor* s = stored.find(prefix + name);
-      if (!s || s->scalar_type() != at::kFloat || s->sizes() != t.sizes())
-        fail(path, "missing or misshapen tensor \"" + prefix + name + "\"");
-      t.copy_(*s);
-    }
-  };
-  const at::Tensor* step = stored.find("step");
-  if (!step || step->scalar_type() != at::kLong || step->numel() != 1) fail(path, "missing step count");
-  const int64_t steps = step->item<int64_t>();
+  int64_t steps = -1;
+  try {
+    steps = std::stoll(meta.at("lrf_adam_steps"));
+  } catch (const std::exception&) {
+    fail(path, "bad step count \"" + meta.at("lrf_adam_steps") + "\"");
+  }
   if (steps < 0 || steps > options_.iterations)
     fail(path, "holds step " + std::to_string(steps) + ", beyond the run's " + std::to_string(options_.iterations) +
                    " steps (resume with a larger --steps)");
-  restore("field.", field_);
-  restore("adam_m.", m_);
-  restore("adam_v.", v_);
-  step_ = steps;
+  adam_.load(path);
+  step_ = adam_.steps();
 }
 
 }  // namespace lrf::nerf

@@ -16,6 +16,7 @@
 
 #include "lrf/nerf/nerf_field.h"
 #include "lrf/nerf/nerf_render.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/scene/camera.h"
 
 namespace lrf::nerf {
@@ -56,14 +57,14 @@ class NerfTrainer {
   const NerfTrainOptions& options() const { return options_; }
   double learning_rate(int64_t step) const;
 
-  // Field, Adam moments and step count, written atomically; load refuses a checkpoint of another layout.
+  // Field, Adam moments and step count (ParamAdam's checkpoint, with the field's spec), written atomically;
+  // load refuses a checkpoint of another layout.
   void save_checkpoint(const std::string& path) const;
   void load_checkpoint(const std::string& path);
 
  private:
-  void adam_step(const NerfField& grads);
-
-  NerfField field_, m_, v_;
+  NerfField field_;
+  ParamAdam adam_;  // over field_'s tensors, updated in place
   NerfTrainingRays rays_;
   NerfTrainOptions options_;
   int64_t step_ = 0;

@@ -9,8 +9,38 @@
 
 namespace lrf {
 
-ParamAdam::ParamAdam(std::vector<at::Tensor> params, AdamOptions options)
-    : params_(std::move(params)), options_(options) {
+namespace {
+
+// p -= lr / bc1 * m / (sqrt(v / bc2) + eps) after the moments' update, in one pass over float32 tensors.
+void fused_update(at::Tensor& param, const at::Tensor& grad, at::Tensor& m, at::Tensor& v, const AdamOptions& o,
+                  double bc1, double bc2, bool lazy) {
+  float* p = param.data_ptr<float>();
+  const float* g = grad.data_ptr<float>();
+  float* mp = m.data_ptr<float>();
+  float* vp = v.data_ptr<float>();
+  const float step_size = static_cast<float>(o.lr / bc1), inv_bc2 = static_cast<float>(1.0 / bc2);
+  const float b1 = static_cast<float>(o.beta1), b2 = static_cast<float>(o.beta2), eps = static_cast<float>(o.eps);
+  at::parallel_for(0, param.numel(), 1 << 14, [&](int64_t begin, int64_t end) {
+    for (int64_t i = begin; i < end; ++i) {
+      if (lazy && g[i] == 0.0f) continue;
+      mp[i] = b1 * mp[i] + (1.0f - b1) * g[i];
+      vp[i] = b2 * vp[i] + (1.0f - b2) * g[i] * g[i];
+      p[i] -= step_size * mp[i] / (std::sqrt(vp[i] * inv_bc2) + eps);
+    }
+  });
+}
+
+bool fusable(const at::Tensor& param, const at::Tensor& grad) {
+  return param.scalar_type() == at::kFloat && grad.scalar_type() == at::kFloat && param.is_contiguous() &&
+         grad.is_contiguous();
+}
+
+}  // namespace
+
+ParamAdam::ParamAdam(std::vector<at::Tensor> params, AdamOptions options, std::vector<bool> lazy)
+    : params_(std::move(params)), lazy_(std::move(lazy)), options_(options) {
+  if (lazy_.empty()) lazy_.assign(params_.size(), false);
+  if (lazy_.size() != params_.size()) fail("ParamAdam: one lazy flag per parameter expected");
   for (const auto& p : params_) {
     m_.push_back(torch::zeros_like(p));
     v_.push_back(torch::zeros_like(p));
@@ -31,19 +61,41 @@ void ParamAdam::zero_grad() {
 }
 
 void ParamAdam::step() {
+  std::vector<at::Tensor> grads;
+  for (const auto& p : params_) grads.push_back(p.grad());
+  step(grads);
+}
+
+void ParamAdam::step(const std::vector<at::Tensor>& grads) {
+  if (grads.size() != params_.size()) fail("ParamAdam: one gradient per parameter expected");
   torch::NoGradGuard no_grad;
   ++steps_;
   const double bc1 = 1.0 - std::pow(options_.beta1, static_cast<double>(steps_));
   const double bc2 = 1.0 - std::pow(options_.beta2, static_cast<double>(steps_));
-  const double step_size = options_.lr / bc1;
-  const double sqrt_bc2 = std::sqrt(bc2);
   for (size_t i = 0; i < params_.size(); ++i) {
-    const at::Tensor& g = params_[i].grad();
+    const at::Tensor& g = grads[i];
     if (!g.defined()) continue;
-    m_[i].mul_(options_.beta1).add_(g, 1.0 - options_.beta1);
-    v_[i].mul_(options_.beta2).addcmul_(g, g, 1.0 - options_.beta2);
-    at::Tensor denom = (v_[i].sqrt() / sqrt_bc2).add_(options_.eps);
-    params_[i].addcdiv_(m_[i], denom, -step_size);
+    if (g.sizes() != params_[i].sizes()) fail("ParamAdam: a gradient's shape differs from its parameter's");
+    if (fusable(params_[i], g)) {
+      fused_update(params_[i], g, m_[i], v_[i], options_, bc1, bc2, lazy_[i]);
+      // Written through its data pointer, which autograd does not see: caches keyed by the version (the
+      // fused autoencoder's packed weights, tiny_fused.cpp) must see the change as after an in-place op.
+      params_[i].unsafeGetTensorImpl()->bump_version();
+      continue;
+    }
+    at::Tensor g_used = g, keep;
+    if (lazy_[i]) keep = g != 0;
+    at::Tensor m_new = m_[i] * options_.beta1 + g_used * (1.0 - options_.beta1);
+    at::Tensor v_new = v_[i] * options_.beta2 + g_used * g_used * (1.0 - options_.beta2);
+    at::Tensor update = m_new * (-options_.lr / bc1) / ((v_new / bc2).sqrt() + options_.eps);
+    if (lazy_[i]) {
+      m_new = at::where(keep, m_new, m_[i]);
+      v_new = at::where(keep, v_new, v_[i]);
+      update = at::where(keep, update, at::zeros_like(update));
+    }
+    m_[i].copy_(m_new);
+    v_[i].copy_(v_new);
+    params_[i].add_(update.to(params_[i].scalar_type()));
   }
 }
 

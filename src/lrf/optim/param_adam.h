@@ -1,10 +1,14 @@
 #pragma once
-// Adam over a list of dense parameter tensors, for the jobs that train network weights: Stage I and Stage
-// III (one half of an autoencoder), the feature field's lift and the refinement's decoder. They must stop and
-// resume to exactly the same result, so the optimizer is a small explicit Adam whose whole state (the
-// parameters, both moments, the step) is one safetensors checkpoint; everything random in a step is derived
-// from (seed, step), so nothing else has to be saved. (The Gaussians have their own sparse, SIMD Adam:
+// Adam over a list of parameter tensors, for the jobs that train network weights: Stage I and Stage III
+// (one half of an autoencoder), the feature field's lift, the refinement's decoder and the latent NeRF (its
+// hash grid and MLPs). They must stop and resume to exactly the same result, so the optimizer is a small
+// explicit Adam whose whole state (the parameters, both moments, the step) is one safetensors checkpoint;
+// everything random in a step is derived from (seed, step), so nothing else has to be saved. (The
+// Gaussians have their own sparse, SIMD Adam, which also prunes and grows with the field:
 // splat/train/optimizer.h.)
+//
+// A float32 parameter is updated in one fused pass (moments and parameter together, no temporaries); others
+// through tensor operations, the same formula.
 #include <cstdint>
 #include <map>
 #include <string>
@@ -21,11 +25,16 @@ struct AdamOptions {
 
 class ParamAdam {
  public:
-  ParamAdam(std::vector<at::Tensor> params, AdamOptions options);
+  // `lazy` (one flag per parameter, or empty for none): entries of that parameter whose gradient is exactly
+  // 0 in a step keep their value and moments, as Instant-NGP updates its hash grid, so that rarely seen
+  // cells are not dragged by stale momentum.
+  ParamAdam(std::vector<at::Tensor> params, AdamOptions options, std::vector<bool> lazy = {});
   // Clears every parameter's gradient.
   void zero_grad();
   // One update from the parameters' .grad() (parameters without a gradient are skipped).
   void step();
+  // One update from gradients computed by hand (one per parameter, same shapes; undefined ones skipped).
+  void step(const std::vector<at::Tensor>& grads);
   int64_t steps() const { return steps_; }
   void set_steps(int64_t steps) { steps_ = steps; }
   const std::vector<at::Tensor>& parameters() const { return params_; }
@@ -42,6 +51,7 @@ class ParamAdam {
 
  private:
   std::vector<at::Tensor> params_, m_, v_;
+  std::vector<bool> lazy_;
   AdamOptions options_;
   int64_t steps_ = 0;
 };
