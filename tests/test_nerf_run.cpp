@@ -97,6 +97,20 @@ TEST(NerfTrainer, ResumedFromACheckpointContinuesExactly) {
   const std::string message = lrf::test::error_of([&] { wrong.load_checkpoint(dir / "ckpt.safetensors"); });
   EXPECT_NE(message.find("ckpt.safetensors"), std::string::npos) << message;
   EXPECT_NE(message.find("other settings"), std::string::npos) << message;
+
+  // A checkpoint of an earlier lrf (its own tensor names, no optimizer record) is refused with advice, and
+  // the field is left as it was.
+  lrf::StateDict old_layout;
+  for (const auto& [name, t] : whole.field().named_tensors()) old_layout.insert("field." + name, t.clone());
+  old_layout.insert("step", at::full({1}, 3, at::kLong));
+  lrf::write_safetensors(dir / "old.safetensors", old_layout,
+                         {{"format", "lrf latent-nerf checkpoint"}, {"spec", small_spec().to_json().dump()}});
+  NerfTrainer fresh(NerfField::create(small_spec(), 5), small_rays(), to);
+  const std::string old = lrf::test::error_of([&] { fresh.load_checkpoint(dir / "old.safetensors"); });
+  EXPECT_NE(old.find("old.safetensors"), std::string::npos) << old;
+  EXPECT_NE(old.find("without --resume"), std::string::npos) << old;
+  EXPECT_EQ(fresh.steps_done(), 0);
+  expect_same_field(fresh.field(), NerfField::create(small_spec(), 5));
 }
 
 TEST(NerfField, SavesAndLoadsAndRefusesDamagedFiles) {
