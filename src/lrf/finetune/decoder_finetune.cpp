@@ -14,11 +14,12 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/seed_stream.h"
+#include "lrf/finetune/finetune_loop.h"
+#include "lrf/finetune/finetune_output.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/optim/param_adam.h"
-#include "lrf/finetune/finetune_loop.h"
-#include "lrf/finetune/finetune_output.h"
 #include "lrf/run/field_kind.h"
 
 namespace fs = std::filesystem;
@@ -208,7 +209,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   loop.group = group.get();
   loop.step_loss = [&](int64_t step) {
     // Every rank draws the whole batch's crops from the step's generator and keeps its share.
-    std::mt19937_64 rng(o.seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) * 0xD1B54A32D192ED03ull + 7);
+    std::mt19937_64 rng(stream_seed(o.seed, SeedStream::stage3_crops, static_cast<uint64_t>(step)));
     at::Tensor loss = torch::zeros({});
     double l_train = 0, l_novel = 0;
     if (o.weight_train > 0) {

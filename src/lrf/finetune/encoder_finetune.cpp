@@ -12,9 +12,10 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/seed_stream.h"
+#include "lrf/finetune/finetune_output.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/optim/param_adam.h"
-#include "lrf/finetune/finetune_output.h"
 
 namespace lrf {
 namespace {
@@ -248,7 +249,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   loop.group = group.get();
   loop.step_loss = [&](int64_t step) {
     PairBatch batch = sample_pair_batch(scenes, o.batch, o.seed, step);
-    torch::manual_seed(o.seed * 1000003ull + static_cast<uint64_t>(step));  // the KL-VAE's posterior sample
+    torch::manual_seed(stream_seed(o.seed, SeedStream::stage1_posterior, static_cast<uint64_t>(step)));
     Stage1Losses l = stage1_losses(*model, *original, batch, o, share);
     return FinetuneStepLoss{l.total, {{"vae", l.vae.item<double>()},
                                       {"corres", l.corres.item<double>()},

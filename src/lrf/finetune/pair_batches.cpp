@@ -10,6 +10,7 @@
 #include "lrf/align/correspondence_loss.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/seed_stream.h"
 
 namespace lrf {
 namespace {
@@ -118,7 +119,7 @@ PairBatch sample_pair_batch(const std::vector<PairScene>& scenes, const PairBatc
                             int64_t step) {
   if (scenes.empty()) fail("Stage I needs at least one scene");
   const int side = effective_crop(scenes, options.crop);
-  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) * 0xBF58476D1CE4E5B9ull + 1);
+  std::mt19937_64 rng(stream_seed(seed, SeedStream::stage1_pairs, static_cast<uint64_t>(step)));
   // Scenes are drawn in proportion to their pairs' count, i.e. every pair equally often.
   std::vector<double> counts;
   for (const auto& s : scenes) counts.push_back(static_cast<double>(s.correspondences.pairs.size()));

@@ -9,6 +9,7 @@
 
 #include "lrf/core/error.h"
 #include "lrf/core/safetensors.h"
+#include "lrf/core/seed_stream.h"
 #include "lrf/nerf/ray_sampling.h"
 
 namespace lrf::nerf {
@@ -16,14 +17,6 @@ namespace {
 
 constexpr const char* kCheckpointFormat = "lrf latent-nerf checkpoint";
 constexpr double kBeta1 = 0.9, kBeta2 = 0.99, kEpsilon = 1e-15;
-
-// splitmix64: a step's seed from the run's seed and the step number.
-uint64_t step_seed(uint64_t seed, int64_t step) {
-  uint64_t z = seed + 0x9E3779B97F4A7C15ull * static_cast<uint64_t>(step + 1);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
 
 std::vector<at::Tensor> tensors_of(const NerfField& field) {
   std::vector<at::Tensor> out;
@@ -87,7 +80,7 @@ double NerfTrainer::learning_rate(int64_t step) const {
 NerfStepResult NerfTrainer::step() {
   using Clock = std::chrono::steady_clock;
   NerfStepResult r;
-  auto generator = at::make_generator<at::CPUGeneratorImpl>(step_seed(options_.seed, step_));
+  auto generator = at::make_generator<at::CPUGeneratorImpl>(stream_seed(options_.seed, SeedStream::nerf_rays, static_cast<uint64_t>(step_)));
   auto t0 = Clock::now();
   const int64_t R = options_.rays_per_step;
   const at::Tensor index = at::randint(rays_.count(), {R}, generator, at::kLong);

@@ -12,16 +12,17 @@
 
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
-#include "lrf/core/paths.h"
 #include "lrf/core/log.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
-#include "lrf/optim/param_adam.h"
+#include "lrf/core/seed_stream.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/latent/latent_scoring.h"
+#include "lrf/optim/param_adam.h"
 #include "lrf/refine/decoded_loss.h"
 #include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/render_field.h"
@@ -58,18 +59,11 @@ void check_options(const RefineOptions& o) {
          "--densify-grad positive");
 }
 
-// Seeds of the window stream; the trainer's own streams (view order) use other ones.
-uint64_t window_seed(uint64_t seed, int64_t step) {
-  uint64_t x = seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(step) * 0xD1B54A32D192ED03ull + 0x5bd1e995;
-  x ^= x >> 31;
-  return x * 0xBF58476D1CE4E5B9ull;
-}
-
 // The step's camera shift in image pixels (x, y), from a stream of its own, so that windows and view order
 // are those of a run without jitter.
 std::pair<int, int> jitter_of_step(const RefineOptions& o, int64_t step) {
   if (o.jitter <= 0) return {0, 0};
-  std::mt19937_64 rng(window_seed(o.seed, step) ^ 0x94D049BB133111EBull);
+  std::mt19937_64 rng(stream_seed(o.seed, SeedStream::refine_jitter, static_cast<uint64_t>(step)));
   std::uniform_int_distribution<int> pixels(0, o.jitter);
   const int dx = pixels(rng);
   return {dx, pixels(rng)};
@@ -232,7 +226,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
   to.lr = lr;
   to.objective = [&](const torch::Tensor& rendered, int view, int64_t step) {
     const torch::Tensor& image = images[static_cast<size_t>(view)];
-    std::mt19937_64 rng(window_seed(o.seed, step));
+    std::mt19937_64 rng(stream_seed(o.seed, SeedStream::refine_windows, static_cast<uint64_t>(step)));
     const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
     const auto [dx, dy] = jitter_of_step(o, step);
     // The decoder's backward runs here, down to the rendered latent, so that the step's profile tells the

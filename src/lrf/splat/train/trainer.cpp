@@ -9,9 +9,10 @@
 #include <torch/serialize.h>
 
 #include "lrf/core/atomic_file.h"
+#include "lrf/core/seed_stream.h"
+#include "lrf/splat/render_field.h"
 #include "lrf/splat/train/loss.h"
 #include "lrf/splat/train/mip_filter.h"
-#include "lrf/splat/render_field.h"
 #include "lrf/splat/train/spatial_order.h"
 
 namespace lrf::splat {
@@ -22,16 +23,6 @@ double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
-// A 64-bit mix of (seed, stream, index) for per-step random streams.
-uint64_t mix(uint64_t seed, uint64_t stream, uint64_t index) {
-  uint64_t x = seed * 0x9E3779B97F4A7C15ull ^ (stream + 0x632BE59BD9B4E019ull) * 0xBF58476D1CE4E5B9ull ^ index;
-  x ^= x >> 31;
-  x *= 0x94D049BB133111EBull;
-  x ^= x >> 29;
-  return x;
-}
-
-constexpr uint64_t kStreamViews = 1, kStreamSplit = 2;
 
 // The view seen at 1/factor of its size: each target pixel is the mean of the full-size pixels under it,
 // which is what the reduced camera's pixel (its intrinsics scaled by the same ratio) covers.
@@ -92,7 +83,7 @@ int Trainer::view_for_step(int64_t step) const {
   const int64_t epoch = step / n, pos = step % n;
   std::vector<int> order(static_cast<size_t>(n));
   std::iota(order.begin(), order.end(), 0);
-  std::mt19937_64 rng(mix(options_.seed, kStreamViews, static_cast<uint64_t>(epoch)));
+  std::mt19937_64 rng(stream_seed(options_.seed, SeedStream::view_order, static_cast<uint64_t>(epoch)));
   std::shuffle(order.begin(), order.end(), rng);
   return order[static_cast<size_t>(pos)];
 }
@@ -187,7 +178,7 @@ StepResult Trainer::step() {
   t0 = Clock::now();
   if (sched.densify_at(step)) {
     r.densify = densifier_.densify_and_prune(g_, adam_, extent_, step > sched.opacity_reset_every,
-                                             mix(options_.seed, kStreamSplit, static_cast<uint64_t>(step)),
+                                             stream_seed(options_.seed, SeedStream::densify_split, static_cast<uint64_t>(step)),
                                              options_.densify);
     sort_spatially(g_, adam_);  // the statistics were just reset: nothing else to reorder
     r.densified = true;
