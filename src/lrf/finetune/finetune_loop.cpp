@@ -109,7 +109,6 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   result.first_step = start;
   std::optional<Progress> progress;
   if (g.is_main()) progress.emplace(l.task, l.steps, 2.0, start);
-  int64_t step = start;
   bool stop = false;
   RunLoop loop;
   loop.total_steps = l.steps;
@@ -122,6 +121,7 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
   // the same step.
   loop.stop_requested = [&] { return stop; };
   loop.step = [&] {
+    const int64_t step = adam.steps();  // done before this one
     adam.zero_grad();
     FinetuneStepLoss part;
     std::vector<double> values;
@@ -153,9 +153,8 @@ FinetuneLoopResult run_finetune_loop(const FinetuneLoop& l) {
       g.fail_step("step " + std::to_string(step + 1) + " (backward and gradient all-reduce)", e.what(), advice());
     }
     adam.step();
-    ++step;
     result.last_loss = values[0];
-    LoopStep shown{step, {{"loss", values[0]}}};
+    LoopStep shown{adam.steps(), {{"loss", values[0]}}};
     for (size_t k = 0; k < part.metrics.size(); ++k) {
       result.last_metrics[part.metrics[k].first] = values[k + 1];
       shown.shown.emplace_back(part.metrics[k].first, values[k + 1]);

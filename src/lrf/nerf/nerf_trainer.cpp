@@ -80,7 +80,7 @@ double NerfTrainer::learning_rate(int64_t step) const {
 NerfStepResult NerfTrainer::step() {
   using Clock = std::chrono::steady_clock;
   NerfStepResult r;
-  auto generator = at::make_generator<at::CPUGeneratorImpl>(stream_seed(options_.seed, SeedStream::nerf_rays, static_cast<uint64_t>(step_)));
+  auto generator = at::make_generator<at::CPUGeneratorImpl>(stream_seed(options_.seed, SeedStream::nerf_rays, static_cast<uint64_t>(steps_done())));
   auto t0 = Clock::now();
   const int64_t R = options_.rays_per_step;
   const at::Tensor index = at::randint(rays_.count(), {R}, generator, at::kLong);
@@ -98,13 +98,13 @@ NerfStepResult NerfTrainer::step() {
 
   NerfField grads = field_.zeros_like();
   r.loss = loss_and_gradients(field_, batch, s, targets, &grads, &r.timings);
-  if (!std::isfinite(r.loss)) fail("NeRF training diverged at step " + std::to_string(step_ + 1) + " (loss not finite)");
+  if (!std::isfinite(r.loss)) fail("NeRF training diverged at step " + std::to_string(steps_done() + 1) + " (loss not finite)");
   r.psnr = -10.0 * std::log10(std::max(r.loss, 1e-20));
   auto t1 = Clock::now();
-  adam_.set_lr(learning_rate(step_));
+  adam_.set_lr(learning_rate(steps_done()));
   adam_.step(tensors_of(grads));
   r.optimizer_seconds = std::chrono::duration<double>(Clock::now() - t1).count();
-  r.step = ++step_;
+  r.step = steps_done();
   return r;
 }
 
@@ -136,7 +136,6 @@ void NerfTrainer::load_checkpoint(const std::string& path) {
     fail(path, "holds step " + std::to_string(steps) + ", beyond the run's " + std::to_string(options_.iterations) +
                    " steps (resume with a larger --steps)");
   adam_.load(path);
-  step_ = adam_.steps();
 }
 
 }  // namespace lrf::nerf

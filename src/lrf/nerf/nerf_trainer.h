@@ -51,8 +51,8 @@ class NerfTrainer {
   NerfTrainer(NerfField field, NerfTrainingRays rays, const NerfTrainOptions& options);
 
   NerfStepResult step();
-  bool done() const { return step_ >= options_.iterations; }
-  int64_t steps_done() const { return step_; }
+  bool done() const { return steps_done() >= options_.iterations; }
+  int64_t steps_done() const { return adam_.steps(); }
   const NerfField& field() const { return field_; }
   const NerfTrainOptions& options() const { return options_; }
   double learning_rate(int64_t step) const;
@@ -64,10 +64,9 @@ class NerfTrainer {
 
  private:
   NerfField field_;
-  ParamAdam adam_;  // over field_'s tensors, updated in place
+  ParamAdam adam_;  // over field_'s tensors, updated in place; its step count is the trainer's
   NerfTrainingRays rays_;
   NerfTrainOptions options_;
-  int64_t step_ = 0;
 };
 
 }  // namespace lrf::nerf
