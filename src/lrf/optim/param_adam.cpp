@@ -83,12 +83,11 @@ void ParamAdam::step(const std::vector<at::Tensor>& grads) {
       params_[i].unsafeGetTensorImpl()->bump_version();
       continue;
     }
-    at::Tensor g_used = g, keep;
-    if (lazy_[i]) keep = g != 0;
-    at::Tensor m_new = m_[i] * options_.beta1 + g_used * (1.0 - options_.beta1);
-    at::Tensor v_new = v_[i] * options_.beta2 + g_used * g_used * (1.0 - options_.beta2);
+    at::Tensor m_new = m_[i] * options_.beta1 + g * (1.0 - options_.beta1);
+    at::Tensor v_new = v_[i] * options_.beta2 + g * g * (1.0 - options_.beta2);
     at::Tensor update = m_new * (-options_.lr / bc1) / ((v_new / bc2).sqrt() + options_.eps);
     if (lazy_[i]) {
+      const at::Tensor keep = g != 0;
       m_new = at::where(keep, m_new, m_[i]);
       v_new = at::where(keep, v_new, v_[i]);
       update = at::where(keep, update, at::zeros_like(update));
