@@ -22,8 +22,7 @@ LatentRun open_latent_run(const std::string& out) {
   LatentRun run;
   run.out = out;
   const std::string config_path = (fs::path(out) / "config.json").string();
-  if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
-  run.config = read_json_file(config_path);
+  run.config = splat::read_run_config(out);
   const LatentConfig c = parse_latent_config(run.config, config_path);
   run.autoencoder = c.autoencoder;
   run.encoder = c.encoder;

@@ -14,6 +14,7 @@
 #include "lrf/run/field_kind.h"
 #include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/run/run_config.h"
+#include "lrf/splat/run/run_folder.h"
 
 namespace fs = std::filesystem;
 
@@ -29,8 +30,7 @@ NerfRun open_nerf_run(const std::string& out) {
   NerfRun run;
   run.out = out;
   const std::string config_path = (fs::path(out) / "config.json").string();
-  if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
-  run.config = read_json_file(config_path);
+  run.config = splat::read_run_config(out);
   if (field_kind_of_config(run.config, config_path) != FieldKind::latent_nerf)
     fail(config_path, "not a latent NeRF run (lrf train --space latent-nerf)");
   std::string identity;

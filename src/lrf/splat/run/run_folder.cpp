@@ -35,12 +35,17 @@ nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& o
   return j;
 }
 
+nlohmann::json read_run_config(const std::string& out) {
+  const std::string path = (fs::path(out) / "config.json").string();
+  if (!fs::exists(path)) fail(path, "not found: is " + out + " a folder made by 'lrf train'?");
+  return read_json_file(path);
+}
+
 FieldRun open_field_run(const std::string& out) {
   FieldRun run;
   run.out = out;
   const std::string config_path = (fs::path(out) / "config.json").string();
-  if (!fs::exists(config_path)) fail(config_path, "not found: is " + out + " a folder made by 'lrf train'?");
-  run.config = read_json_file(config_path);
+  run.config = read_run_config(out);
   const FieldConfig c = parse_field_config(run.config, config_path);
   if (c.kind != FieldKind::rgb) fail(config_path, "space '" + field_kind_name(c.kind) + "' cannot be rendered as RGB by this command yet");
   run.render.sh_degree = c.sh_degree;

@@ -25,6 +25,9 @@ struct FieldRun {
 nlohmann::json scene_config(const std::string& scene_root, const SceneOptions& options, const Scene& scene,
                             const std::string& run_folder);
 
+// OUT/config.json of a trained run of any kind; throws lrf::Error naming it when OUT holds none.
+nlohmann::json read_run_config(const std::string& out);
+
 // Throws lrf::Error naming the file when config.json or point_cloud.ply is missing or inconsistent, or the
 // scene is not where config.json (or --scene, set_scene_override) says.
 FieldRun open_field_run(const std::string& out);
