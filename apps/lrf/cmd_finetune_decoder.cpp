@@ -41,17 +41,6 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
                   "validation splits of three LLFF scenes, where the paper's loss lost 0.6 dB and this weight gained "
                   "0.4 dB over the stock decoder)")
       ->capture_default_str();
-  cmd->add_option("--decoder-scale", o->decoder_scale,
-                  "Fine-tune only the decoder's layers working at most this many times the latent resolution "
-                  "(1: at the latent's; 0: every layer)")
-      ->capture_default_str();
-  cmd->add_option("--degrade-blur", o->degrade_blur,
-                  "Blur each round-trip crop's latents by a Gaussian of a width drawn uniformly in [0, this] latent "
-                  "pixels, so that the decoder also learns to decode latents as blurred as rendered ones (0: off)")
-      ->capture_default_str();
-  cmd->add_option("--degrade-noise", o->degrade_noise,
-                  "Add white noise of this many times each channel's spread to the round-trip crops' latents (0: off)")
-      ->capture_default_str();
   cmd->add_option("--base-lr", o->base_lr, "Base learning rate; Adam's rate is base-lr x crops per step")
       ->capture_default_str();
   cmd->add_option("--lr", o->lr, "Adam's learning rate, overriding --base-lr scaling (0: use --base-lr)")

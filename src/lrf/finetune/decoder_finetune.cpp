@@ -75,41 +75,6 @@ std::pair<at::Tensor, at::Tensor> sample_crops(const std::vector<Sample>& sample
   return {at::stack(z), at::stack(x)};
 }
 
-// Blurs each latent crop of z [N, C, h, w] by a Gaussian of its own width (uniform in [0, max_sigma] latent
-// pixels; reflected borders) and adds white noise of `noise` times each crop channel's standard deviation.
-at::Tensor degrade_latents(const at::Tensor& z, double max_sigma, double noise, std::mt19937_64& rng) {
-  std::vector<at::Tensor> out;
-  const int64_t channels = z.size(1);
-  for (int64_t k = 0; k < z.size(0); ++k) {
-    at::Tensor zk = z.narrow(0, k, 1);
-    const double sigma = max_sigma > 0 ? std::uniform_real_distribution<double>(0, max_sigma)(rng) : 0;
-    const int64_t radius = std::min<int64_t>({static_cast<int64_t>(std::ceil(3 * sigma)), z.size(2) - 1, z.size(3) - 1});
-    if (sigma > 1e-3 && radius > 0) {
-      std::vector<float> taps;
-      double total = 0;
-      for (int64_t i = -radius; i <= radius; ++i) {
-        taps.push_back(static_cast<float>(std::exp(-0.5 * static_cast<double>(i * i) / (sigma * sigma))));
-        total += taps.back();
-      }
-      for (float& t : taps) t = static_cast<float>(t / total);
-      const at::Tensor kernel = torch::tensor(taps).to(z.dtype());
-      const int64_t n = static_cast<int64_t>(taps.size());
-      zk = torch::reflection_pad2d(zk, {radius, radius, radius, radius});
-      zk = at::conv2d(zk, kernel.view({1, 1, 1, n}).expand({channels, 1, 1, n}).contiguous(), c10::nullopt, at::IntArrayRef{1, 1}, at::IntArrayRef{0, 0}, at::IntArrayRef{1, 1}, channels);
-      zk = at::conv2d(zk, kernel.view({1, 1, n, 1}).expand({channels, 1, n, 1}).contiguous(), c10::nullopt, at::IntArrayRef{1, 1}, at::IntArrayRef{0, 0}, at::IntArrayRef{1, 1}, channels);
-    }
-    if (noise > 0) {
-      std::normal_distribution<float> gauss;
-      std::vector<float> draws(static_cast<size_t>(zk.numel()));
-      for (float& d : draws) d = gauss(rng);
-      const at::Tensor spread = zk.std({2, 3}, /*unbiased=*/false, /*keepdim=*/true);
-      zk = zk + noise * spread * torch::tensor(draws).view(zk.sizes()).to(z.dtype());
-    }
-    out.push_back(zk);
-  }
-  return at::cat(out);
-}
-
 nlohmann::json resume_key(const DecoderFinetuneOptions& o) {
   nlohmann::json j = decoder_finetune_options_json(o);
   j.erase("steps");
@@ -128,9 +93,6 @@ nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& o) {
   // Recorded only when used, so that records of the paper's loss made before the option still match.
   if (o.lambda_ssim != 0) j["lambda_ssim"] = o.lambda_ssim;
   if (o.weight_roundtrip != 0) j["weight_roundtrip"] = o.weight_roundtrip;
-  if (o.decoder_scale != 0) j["decoder_scale"] = o.decoder_scale;
-  if (o.degrade_blur != 0) j["degrade_blur"] = o.degrade_blur;
-  if (o.degrade_noise != 0) j["degrade_noise"] = o.degrade_noise;
   return j;
 }
 
@@ -182,11 +144,6 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail_usage("finetune-decoder: --lambda-ssim must be between 0 and 1");
   if (!(o.weight_roundtrip >= 0 && std::isfinite(o.weight_roundtrip)))
     fail_usage("finetune-decoder: --weight-roundtrip must be a finite number >= 0");
-  if (o.decoder_scale < 0) fail_usage("finetune-decoder: --decoder-scale must be >= 0");
-  if (!(o.degrade_blur >= 0 && o.degrade_blur <= 8 && o.degrade_noise >= 0 && o.degrade_noise <= 4))
-    fail_usage("finetune-decoder: --degrade-blur must be in [0, 8] latent pixels and --degrade-noise in [0, 4]");
-  if ((o.degrade_blur > 0 || o.degrade_noise > 0) && o.weight_roundtrip == 0)
-    fail_usage("finetune-decoder: --degrade-blur and --degrade-noise act on the round-trip term: give --weight-roundtrip > 0");
   const int world = std::max(1, o.distributed.world_size);
   if (o.batch < world) {
     fail("finetune-decoder: --batch " + std::to_string(o.batch) + " is the global batch, split over " +
@@ -225,9 +182,9 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   group->require_same_as_main(stage3_inputs(o, train, novel, crop), "options or inputs");
 
   ae->set_encoder_trainable(false);
-  ae->set_decoder_trainable(true, o.decoder_scale);
+  ae->set_decoder_trainable(true);
   const int per_step = (o.weight_train > 0 ? o.batch : 0) + (o.weight_novel > 0 ? o.batch : 0);
-  ParamAdam adam(ae->decoder_parameters(o.decoder_scale), {o.lr > 0 ? o.lr : o.base_lr * per_step});
+  ParamAdam adam(ae->decoder_parameters(), {o.lr > 0 ? o.lr : o.base_lr * per_step});
   const BatchShare share = batch_share(o.batch, group->rank(), group->world_size());
   if (group->is_main()) {
     log_info("Stage III: " + ae->description() + ", " + std::to_string(train.size()) + " training and " +
@@ -272,7 +229,6 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
       {
         torch::NoGradGuard no_grad;
         crops.first = ae->encode(crops.second);
-        if (o.degrade_blur > 0 || o.degrade_noise > 0) crops.first = degrade_latents(crops.first, o.degrade_blur, o.degrade_noise, rng);
       }
       at::Tensor l = share_loss(*ae, crops, share, o.lambda_ssim);
       step_loss.loss = step_loss.loss + o.weight_roundtrip * l;

@@ -42,13 +42,6 @@ struct DecoderFinetuneOptions {
   double lambda_ssim = 0;        // 0 = the paper's pure L1
   double weight_roundtrip = 0;   // weight of the encoded-image term (0 = none, the paper's loss; its crops do
                                  // not count in the base rate's crops per step)
-  // Degraded round-trip latents: each encoded crop is blurred by a Gaussian of a standard deviation drawn
-  // uniformly in [0, degrade_blur] latent pixels and given white noise of degrade_noise times each channel's
-  // spread, as rendered latents are (their gain falls to 0.3-0.5 at the highest latent frequencies, with
-  // uncorrelated detail in its place); 0 and 0 = the encoded latents as they are.
-  double degrade_blur = 0, degrade_noise = 0;
-  int decoder_scale = 0;         // > 0: fine-tune only the decoder's layers at most this many times the latent
-                                 // resolution (Autoencoder::decoder_parameters); 0: every layer
   double base_lr = 4.5e-6;       // the paper's base rate; Adam's rate is base_lr x crops per step ...
   double lr = 0;                 // ... unless this is set (> 0)
   uint64_t seed = 0;
