@@ -168,6 +168,33 @@ TEST(SceneErrors, NonFinitePosesAndIntrinsicsNameTheFileTheViewAndTheValue) {
   EXPECT_FALSE(fs::exists(tmp / "out"));
 }
 
+// A camera with a focal length that is not positive projects nothing: every reader refuses it, naming the
+// file and the camera. The LLFF and transforms.json readers did; a negative COLMAP focal length used to be
+// read, and training stopped later with the rasterizer's "render: focal lengths must be positive", no file named.
+TEST(SceneErrors, NonPositiveFocalLengthsAreRefusedByEveryReader) {
+  TempDir tmp("focal");
+  fs::create_directories(tmp / "llff");
+  fern_with_pose_value(tmp / "llff", 5, 14, -400);
+  expect_cli_error(tmp / "llff", "poses_bounds.npy: row 5 has a non-positive h, w or focal");
+
+  lrf::ColmapModel model = lrf::read_colmap_model(lrf::test::synthetic_scene() + "/sparse/0");
+  model.cameras.begin()->second.params[1] = -5;
+  fs::create_directories(tmp / "colmap/sparse/0");
+  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "colmap/images");
+  lrf::write_colmap_binary(tmp / "colmap/sparse/0", model);
+  expect_cli_error(tmp / "colmap", tmp / "colmap/sparse/0" + ": camera 1 (PINHOLE): focal length must be positive");
+
+  fs::create_directories(tmp / "nerf");
+  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "nerf/images");
+  nlohmann::json frames = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) {
+    frames.push_back({{"file_path", "images/view_00" + std::to_string(i) + ".png"},
+                      {"transform_matrix", {{1, 0, 0, i}, {0, 1, 0, 0}, {0, 0, 1, 4}, {0, 0, 0, 1}}}});
+  }
+  lrf::write_file_atomic(tmp / "nerf/transforms.json", nlohmann::json({{"camera_angle_x", -0.7}, {"frames", frames}}).dump());
+  expect_cli_error(tmp / "nerf", tmp / "nerf/transforms.json" + ": frame 'images/view_000.png': non-positive focal length");
+}
+
 // Views smaller than kMinImageSide after --downscale are refused, naming the image and the sizes (fern at
 // --downscale 1000 used to train on 1x1 images and exit 0).
 TEST(SceneErrors, ImagesTooSmallAfterDownscalingAreRefused) {

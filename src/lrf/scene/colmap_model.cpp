@@ -366,7 +366,9 @@ void write_colmap_binary(const std::string& dir, const ColmapModel& model) {
   write_file_atomic((fs::path(dir) / "points3D.bin").string(), p);
 }
 
-void colmap_intrinsics(const ColmapCamera& cam, const std::string& path, double* fx, double* fy, double* cx,
+namespace {
+
+void intrinsics_by_model(const ColmapCamera& cam, const std::string& path, double* fx, double* fy, double* cx,
                        double* cy, Distortion* d) {
   const ModelInfo* m = model_by_name(cam.model);
   if (!m) fail(path, "unknown camera model '" + cam.model + "'");
@@ -407,6 +409,22 @@ void colmap_intrinsics(const ColmapCamera& cam, const std::string& path, double*
   }
   fail(path, "unsupported camera model " + n + " (camera " + std::to_string(cam.id) +
                  "): undistort the images first, e.g. with `colmap image_undistorter`");
+}
+
+}  // namespace
+
+// A camera that projects nothing (a focal length <= 0, an empty image) is refused here, naming the file,
+// rather than by the rasterizer long after the scene was read.
+void colmap_intrinsics(const ColmapCamera& cam, const std::string& path, double* fx, double* fy, double* cx,
+                       double* cy, Distortion* d) {
+  intrinsics_by_model(cam, path, fx, fy, cx, cy, d);
+  const std::string where = "camera " + std::to_string(cam.id) + " (" + cam.model + ")";
+  if (!(*fx > 0) || !(*fy > 0)) {
+    fail(path, where + ": focal length must be positive (fx " + std::to_string(*fx) + ", fy " + std::to_string(*fy) + ")");
+  }
+  if (cam.width <= 0 || cam.height <= 0) {
+    fail(path, where + ": image size must be positive (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
+  }
 }
 
 Eigen::Matrix3d quaternion_to_rotation(const Eigen::Vector4d& q) {
