@@ -20,7 +20,10 @@ std::string number(double x) {
 void check_render_options(double scale, int width, int height) {
   if (!(std::isfinite(scale) && scale > 0)) fail_usage("--scale must be a finite positive number, got " + number(scale));
   if (width < 0 || height < 0) fail_usage("--width and --height must be positive");
-  if ((width > 0) != (height > 0)) fail_usage("--width and --height go together");
+  if ((width > 0) != (height > 0)) {
+    fail_usage("--width and --height go together, each a positive number of pixels (got " + std::to_string(width) +
+               " and " + std::to_string(height) + ")");
+  }
   if (width > kMaxRenderSide || height > kMaxRenderSide) {
     fail_usage("--width " + std::to_string(width) + " --height " + std::to_string(height) + ": lrf renders at most " +
                std::to_string(kMaxRenderSide) + " pixels per side");
