@@ -184,8 +184,13 @@ TEST_P(DecoderFinetuneAt, ResumedRunEqualsUninterruptedRun) {
 
 TEST_F(DecoderFinetune, BadInputIsReported) {
   lrf::DecoderFinetuneOptions o = options(*dir_ / "bad.safetensors");
+  // A folder that is no run says so; a run of another kind names its kind.
   o.fields = {dir_->str()};
-  EXPECT_NE(error_of([&] { lrf::finetune_decoder(o); }).find("not a latent field"), std::string::npos);
+  EXPECT_NE(error_of([&] { lrf::finetune_decoder(o); }).find("config.json: not found"), std::string::npos);
+  fs::create_directories(*dir_ / "rgb_run");
+  lrf::write_file_atomic(*dir_ / "rgb_run/config.json", R"({"space": "rgb"})");
+  o.fields = {*dir_ / "rgb_run"};
+  EXPECT_NE(error_of([&] { lrf::finetune_decoder(o); }).find("holds a field of space 'rgb', not a latent field"), std::string::npos);
   o = options(*dir_ / "bad.safetensors");
   o.encoder = *dir_ / "missing_encoder.safetensors";
   EXPECT_FALSE(error_of([&] { lrf::finetune_decoder(o); }).empty());

@@ -38,7 +38,11 @@ void build_dataset(const DecoderFinetuneOptions& o, std::vector<Sample>* train, 
   const std::string identity = autoencoder_identity(o.autoencoder, o.encoder);
   torch::NoGradGuard no_grad;
   for (const auto& dir : o.fields) {
-    if (field_kind_of(dir) != FieldKind::latent) fail(dir, "not a latent field (make one with `lrf train --space latent`)");
+    const auto kind = field_kind_of(dir);
+    if (!kind) fail(dir + "/config.json", "not found: is " + dir + " a folder made by 'lrf train --space latent'?");
+    if (*kind != FieldKind::latent) {
+      fail(dir, "holds a field of space '" + field_kind_name(*kind) + "', not a latent field (make one with `lrf train --space latent`)");
+    }
     LatentRun run = open_latent_run(dir);
     const std::string field_identity = autoencoder_identity(run.autoencoder, run.encoder);
     if (field_identity != identity) {
