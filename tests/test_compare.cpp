@@ -215,6 +215,16 @@ TEST(Compare, RefinedRowIsReusedOnlyWithTheSameRefineOptions) {
 }
 
 // The plan printed before each method names the refinement's length as the run will resolve it.
+// An unknown method is a usage error (exit 2) that names the known ones, and nothing is written.
+TEST(Compare, UnknownMethodIsAUsageErrorBeforeAnyWork) {
+  lrf::test::TempDir tmp("compare_unknown");
+  auto r = lrf::test::run_lrf("compare '" + lrf::test::synthetic_scene() + "' --methods rgb/8 rgb-nope -o '" +
+                              (tmp / "out") + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--methods: unknown method 'rgb-nope' (rgb, "), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(tmp / "out"));
+}
+
 TEST(Compare, PlanNamesTheRefinementLength) {
   lrf::CompareOptions o;
   EXPECT_NE(lrf::compare_method_plan("latent-refined", o).find(std::to_string(lrf::kRefineStepsPerView) +

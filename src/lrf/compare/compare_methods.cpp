@@ -24,7 +24,8 @@ const CompareMethod& compare_method(const std::string& name) {
     if (m.name == name) return m;
     names += (names.empty() ? "" : ", ") + m.name;
   }
-  fail("unknown method '" + name + "' (" + names + ")");
+  // Method names come from --methods: an unknown one is a usage error (exit 2), found before any work.
+  fail_usage("--methods: unknown method '" + name + "' (" + names + ")");
 }
 
 }  // namespace lrf
