@@ -34,7 +34,6 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
                   "Mix each term's L1 with D-SSIM: (1 - lambda) L1 + lambda (1 - SSIM), as 3DGS does (0: the paper's "
                   "pure L1)")
       ->capture_default_str();
-  cmd->add_flag("--squared", o->squared, "Every term a mean squared error instead of L1");
   o->weight_roundtrip = lrf::kRecommendedWeightRoundtrip;
   cmd->add_option("--weight-roundtrip", o->weight_roundtrip,
                   "Weight of a third L1 term on crops of the training images encoded by the frozen encoder, which "

@@ -96,7 +96,6 @@ nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& o) {
           {"checkpoint_every", o.checkpoint_every}};
   // Recorded only when used, so that records of the paper's loss made before the option still match.
   if (o.lambda_ssim != 0) j["lambda_ssim"] = o.lambda_ssim;
-  if (o.squared) j["squared"] = true;
   if (o.weight_roundtrip != 0) j["weight_roundtrip"] = o.weight_roundtrip;
   return j;
 }
@@ -126,15 +125,14 @@ nlohmann::json stage3_inputs(const DecoderFinetuneOptions& o, const std::vector<
 // The crops of one term that this rank takes, and the term's loss over them (mean L1, or its mix with
 // D-SSIM) as this rank's part of it.
 at::Tensor share_loss(Autoencoder& ae, const std::pair<at::Tensor, at::Tensor>& crops, const BatchShare& share,
-                      double lambda_ssim, bool squared) {
+                      double lambda_ssim) {
   at::Tensor z = crops.first, x = crops.second;
   if (share.count != share.total) {
     z = z.narrow(0, share.first, share.count);
     x = x.narrow(0, share.first, share.count);
   }
   const at::Tensor decoded = ae.decode_unclamped(z);
-  at::Tensor l = squared ? (decoded - x).square().mean()
-                 : lambda_ssim == 0 ? (decoded - x).abs().mean() : splat::photometric_loss(decoded, x, lambda_ssim);
+  at::Tensor l = lambda_ssim == 0 ? (decoded - x).abs().mean() : splat::photometric_loss(decoded, x, lambda_ssim);
   const double part = share_weight(share);
   return part == 1.0 ? l : l * part;
 }
@@ -219,12 +217,12 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     at::Tensor loss = torch::zeros({});
     double l_train = 0, l_novel = 0;
     if (o.weight_train > 0) {
-      at::Tensor l = share_loss(*ae, sample_crops(train, o.batch, crop, rng), share, o.lambda_ssim, o.squared);
+      at::Tensor l = share_loss(*ae, sample_crops(train, o.batch, crop, rng), share, o.lambda_ssim);
       l_train = l.item<double>();
       loss = loss + o.weight_train * l;
     }
     if (o.weight_novel > 0) {
-      at::Tensor l = share_loss(*ae, sample_crops(novel, o.batch, crop, rng), share, o.lambda_ssim, o.squared);
+      at::Tensor l = share_loss(*ae, sample_crops(novel, o.batch, crop, rng), share, o.lambda_ssim);
       l_novel = l.item<double>();
       loss = loss + o.weight_novel * l;
     }
@@ -236,7 +234,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
         torch::NoGradGuard no_grad;
         crops.first = ae->encode(crops.second);
       }
-      at::Tensor l = share_loss(*ae, crops, share, o.lambda_ssim, o.squared);
+      at::Tensor l = share_loss(*ae, crops, share, o.lambda_ssim);
       step_loss.loss = step_loss.loss + o.weight_roundtrip * l;
       step_loss.metrics.push_back({"l1_roundtrip", l.item<double>()});
     }

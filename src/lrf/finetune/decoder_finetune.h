@@ -40,7 +40,6 @@ struct DecoderFinetuneOptions {
   int crop = 128;                // image crop side (multiple of 8), reduced to fit the smallest view
   double weight_train = 0.5, weight_novel = 0.5;
   double lambda_ssim = 0;        // 0 = the paper's pure L1
-  bool squared = false;          // every term a mean squared error instead of L1 (what PSNR scores)
   double weight_roundtrip = 0;   // weight of the encoded-image term (0 = none, the paper's loss; its crops do
                                  // not count in the base rate's crops per step)
   double base_lr = 4.5e-6;       // the paper's base rate; Adam's rate is base_lr x crops per step ...
