@@ -117,6 +117,26 @@ void fern_with_pose_value(const std::string& dir, int row, int entry, double val
   fs::create_directory_symlink(fern + "/images_8", dir + "/images_8");
 }
 
+// A COLMAP scene of the synthetic scene's images with `model` for its binary model.
+void colmap_scene(const std::string& dir, const lrf::ColmapModel& model) {
+  fs::create_directories(dir + "/sparse/0");
+  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", dir + "/images");
+  lrf::write_colmap_binary(dir + "/sparse/0", model);
+}
+
+// A transforms.json scene of three of the synthetic scene's images with this horizontal field of view.
+void transforms_scene(const std::string& dir, double camera_angle_x) {
+  fs::create_directories(dir);
+  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", dir + "/images");
+  nlohmann::json frames = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) {
+    frames.push_back({{"file_path", "images/view_00" + std::to_string(i) + ".png"},
+                      {"transform_matrix", {{1, 0, 0, i}, {0, 1, 0, 0}, {0, 0, 1, 4}, {0, 0, 0, 1}}}});
+  }
+  lrf::write_file_atomic(dir + "/transforms.json",
+                         nlohmann::json({{"camera_angle_x", camera_angle_x}, {"frames", frames}}).dump());
+}
+
 // A NaN or an infinity in a pose or an intrinsic is refused by every reader, naming the file, the view and
 // the value (it used to load: a NaN camera position gave `extent 0.0000` and a training run that "worked").
 TEST(SceneErrors, NonFinitePosesAndIntrinsicsNameTheFileTheViewAndTheValue) {
@@ -131,11 +151,6 @@ TEST(SceneErrors, NonFinitePosesAndIntrinsicsNameTheFileTheViewAndTheValue) {
 
   // COLMAP (binary; the text format cannot spell NaN): a translation, then a camera parameter.
   const lrf::ColmapModel synthetic = lrf::read_colmap_model(lrf::test::synthetic_scene() + "/sparse/0");
-  auto colmap_scene = [&](const std::string& dir, const lrf::ColmapModel& model) {
-    fs::create_directories(dir + "/sparse/0");
-    fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", dir + "/images");
-    lrf::write_colmap_binary(dir + "/sparse/0", model);
-  };
   lrf::ColmapModel bad_pose = synthetic;
   bad_pose.images[2].tvec.y() = -HUGE_VAL;
   colmap_scene(tmp / "colmap_t", bad_pose);
@@ -151,14 +166,7 @@ TEST(SceneErrors, NonFinitePosesAndIntrinsicsNameTheFileTheViewAndTheValue) {
   expect_cli_error(tmp / "colmap_q", "images.bin: image 'view_000.png' (id 1): rotation quaternion is zero");
 
   // transforms.json (JSON cannot spell NaN either): a field of view of 0 makes the focal length infinite.
-  fs::create_directories(tmp / "nerf");
-  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "nerf/images");
-  nlohmann::json frames = nlohmann::json::array();
-  for (int i = 0; i < 3; ++i) {
-    frames.push_back({{"file_path", "images/view_00" + std::to_string(i) + ".png"},
-                      {"transform_matrix", {{1, 0, 0, i}, {0, 1, 0, 0}, {0, 0, 1, 4}, {0, 0, 0, 1}}}});
-  }
-  lrf::write_file_atomic(tmp / "nerf/transforms.json", nlohmann::json({{"camera_angle_x", 0}, {"frames", frames}}).dump());
+  transforms_scene(tmp / "nerf", 0);
   expect_cli_error(tmp / "nerf", tmp / "nerf/transforms.json" + ": frame 'images/view_000.png': focal length fx is +infinity");
 
   // Training refuses the scene as well, and leaves no output folder behind.
@@ -179,19 +187,10 @@ TEST(SceneErrors, NonPositiveFocalLengthsAreRefusedByEveryReader) {
 
   lrf::ColmapModel model = lrf::read_colmap_model(lrf::test::synthetic_scene() + "/sparse/0");
   model.cameras.begin()->second.params[1] = -5;
-  fs::create_directories(tmp / "colmap/sparse/0");
-  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "colmap/images");
-  lrf::write_colmap_binary(tmp / "colmap/sparse/0", model);
+  colmap_scene(tmp / "colmap", model);
   expect_cli_error(tmp / "colmap", tmp / "colmap/sparse/0" + ": camera 1 (PINHOLE): focal length must be positive");
 
-  fs::create_directories(tmp / "nerf");
-  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "nerf/images");
-  nlohmann::json frames = nlohmann::json::array();
-  for (int i = 0; i < 3; ++i) {
-    frames.push_back({{"file_path", "images/view_00" + std::to_string(i) + ".png"},
-                      {"transform_matrix", {{1, 0, 0, i}, {0, 1, 0, 0}, {0, 0, 1, 4}, {0, 0, 0, 1}}}});
-  }
-  lrf::write_file_atomic(tmp / "nerf/transforms.json", nlohmann::json({{"camera_angle_x", -0.7}, {"frames", frames}}).dump());
+  transforms_scene(tmp / "nerf", -0.7);
   expect_cli_error(tmp / "nerf", tmp / "nerf/transforms.json" + ": frame 'images/view_000.png': non-positive focal length");
 }
 
