@@ -41,10 +41,6 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
                   "validation splits of three LLFF scenes, where the paper's loss lost 0.6 dB and this weight gained "
                   "0.4 dB over the stock decoder)")
       ->capture_default_str();
-  cmd->add_option("--roundtrip-zoom", o->roundtrip_zoom,
-                  "Experimental: each round-trip crop is a window up to this many times the crop's side, area-resized "
-                  "to the crop (1: plain crops)")
-      ->capture_default_str();
   cmd->add_option("--base-lr", o->base_lr, "Base learning rate; Adam's rate is base-lr x crops per step")
       ->capture_default_str();
   cmd->add_option("--lr", o->lr, "Adam's learning rate, overriding --base-lr scaling (0: use --base-lr)")

@@ -79,24 +79,6 @@ std::pair<at::Tensor, at::Tensor> sample_crops(const std::vector<Sample>& sample
   return {at::stack(z), at::stack(x)};
 }
 
-// Image crops for the round-trip term, each from a window s times the crop's side (s uniform in [1, zoom],
-// smaller where the view is too small), area-resized to the crop: the training scenes' textures seen at
-// the coarser scales of a more downscaled capture.
-at::Tensor sample_zoomed_image_crops(const std::vector<Sample>& samples, int count, int crop, double zoom,
-                                     std::mt19937_64& rng) {
-  std::vector<at::Tensor> x;
-  for (int k = 0; k < count; ++k) {
-    const Sample& s = samples[std::uniform_int_distribution<size_t>(0, samples.size() - 1)(rng)];
-    const double scale = std::uniform_real_distribution<double>(1.0, zoom)(rng);
-    const int64_t side = std::min<int64_t>({static_cast<int64_t>(std::lround(crop * scale)), s.image.size(1), s.image.size(2)});
-    const int64_t y = std::uniform_int_distribution<int64_t>(0, s.image.size(1) - side)(rng);
-    const int64_t xo = std::uniform_int_distribution<int64_t>(0, s.image.size(2) - side)(rng);
-    at::Tensor window = s.image.narrow(1, y, side).narrow(2, xo, side).unsqueeze(0);
-    x.push_back(side == crop ? window.squeeze(0) : at::adaptive_avg_pool2d(window, {crop, crop}).squeeze(0));
-  }
-  return at::stack(x);
-}
-
 nlohmann::json resume_key(const DecoderFinetuneOptions& o) {
   nlohmann::json j = decoder_finetune_options_json(o);
   j.erase("steps");
@@ -115,7 +97,6 @@ nlohmann::json decoder_finetune_options_json(const DecoderFinetuneOptions& o) {
   // Recorded only when used, so that records of the paper's loss made before the option still match.
   if (o.lambda_ssim != 0) j["lambda_ssim"] = o.lambda_ssim;
   if (o.weight_roundtrip != 0) j["weight_roundtrip"] = o.weight_roundtrip;
-  if (o.roundtrip_zoom != 1) j["roundtrip_zoom"] = o.roundtrip_zoom;
   return j;
 }
 
@@ -167,8 +148,6 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail_usage("finetune-decoder: --lambda-ssim must be between 0 and 1");
   if (!(o.weight_roundtrip >= 0 && std::isfinite(o.weight_roundtrip)))
     fail_usage("finetune-decoder: --weight-roundtrip must be a finite number >= 0");
-  if (!(o.roundtrip_zoom >= 1 && std::isfinite(o.roundtrip_zoom)))
-    fail_usage("finetune-decoder: --roundtrip-zoom must be a finite number >= 1");
   const int world = std::max(1, o.distributed.world_size);
   if (o.batch < world) {
     fail("finetune-decoder: --batch " + std::to_string(o.batch) + " is the global batch, split over " +
@@ -250,9 +229,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     FinetuneStepLoss step_loss{loss, {{"l1_train", l_train}, {"l1_novel", l_novel}}};
     // Drawn after the paper's terms, so that without it every step's crops are what they were.
     if (o.weight_roundtrip > 0) {
-      auto crops = o.roundtrip_zoom > 1
-                       ? std::make_pair(at::Tensor(), sample_zoomed_image_crops(train, o.batch, crop, o.roundtrip_zoom, rng))
-                       : sample_crops(train, o.batch, crop, rng);
+      auto crops = sample_crops(train, o.batch, crop, rng);
       {
         torch::NoGradGuard no_grad;
         crops.first = ae->encode(crops.second);

@@ -42,8 +42,6 @@ struct DecoderFinetuneOptions {
   double lambda_ssim = 0;        // 0 = the paper's pure L1
   double weight_roundtrip = 0;   // weight of the encoded-image term (0 = none, the paper's loss; its crops do
                                  // not count in the base rate's crops per step)
-  double roundtrip_zoom = 1;     // experimental: each round-trip crop is a window of crop x s image pixels,
-                                 // s uniform in [1, roundtrip_zoom], area-resized to crop (1 = plain crops)
   double base_lr = 4.5e-6;       // the paper's base rate; Adam's rate is base_lr x crops per step ...
   double lr = 0;                 // ... unless this is set (> 0)
   uint64_t seed = 0;
