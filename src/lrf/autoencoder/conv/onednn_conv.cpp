@@ -1,5 +1,6 @@
 #include "lrf/autoencoder/conv/onednn_conv.h"
 
+#include <atomic>
 #include <cstring>
 #include <map>
 #include <mutex>
@@ -52,6 +53,9 @@ struct FusedConv2d::Impl {
   std::unique_ptr<WinogradConv3x3> winograd;
   // The bf16 path of a 3x3 convolution (stride 1, padding 1) to a few outputs (narrow_conv.h).
   std::unique_ptr<NarrowConv3x3> narrow;
+  // Set once oneDNN has refused a bf16 convolution: it has them only on CPUs with AVX-512, so on others
+  // (an AVX2 CPU told --precision bf16) every bf16 input takes the float32 path below.
+  std::atomic<bool> bf16_unsupported{false};
 
   std::shared_ptr<const Prepared> prepared(bool bf16, int64_t n, int64_t h, int64_t w, bool relu, bool sum) {
     const Key key{bf16, n, h, w, relu, sum};
@@ -117,6 +121,14 @@ FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int s
 
 FusedConv2d::~FusedConv2d() = default;
 
+at::Tensor FusedConv2d::forward_bf16_in_float32(const at::Tensor& input, bool relu, const at::Tensor& residual) const {
+  // The bf16 values exactly, float32 products and sums, one rounding of the output: what a bf16
+  // convolution computes, except that the weights keep their float32 bits.
+  if (!residual.defined()) return forward(input.to(at::kFloat), relu).to(at::kBFloat16);
+  conv_destination("FusedConv2d", input, residual, residual.sizes().vec());  // the residual's own checks
+  return residual.copy_(forward(input.to(at::kFloat), relu, residual.to(at::kFloat)));
+}
+
 FusedConv2d::Kernel FusedConv2d::bf16_kernel() const {
   if (impl_->winograd && WinogradConv3x3::available()) return Kernel::winograd;
   if (impl_->narrow && NarrowConv3x3::available()) return Kernel::narrow;
@@ -138,12 +150,18 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
     if (kernel == Kernel::winograd) return m.winograd->forward(input, relu, residual);
     if (kernel == Kernel::narrow) return m.narrow->forward(input, relu, residual);
   }
+  const bool bf16 = dtype == at::kBFloat16;
+  if (bf16 && m.bf16_unsupported.load()) return forward_bf16_in_float32(input, relu, residual);
   const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
   const bool sum = residual.defined();
   std::shared_ptr<const Impl::Prepared> p;
   try {
-    p = m.prepared(dtype == at::kBFloat16, x.size(0), x.size(2), x.size(3), relu, sum);
+    p = m.prepared(bf16, x.size(0), x.size(2), x.size(3), relu, sum);
   } catch (const dnnl::error& e) {
+    if (bf16) {
+      m.bf16_unsupported.store(true);
+      return forward_bf16_in_float32(input, relu, residual);
+    }
     fail(std::string("FusedConv2d: oneDNN has no convolution for ") + shape_of(x) + ": " + e.what());
   }
   // oneDNN reads the input while it writes the output: they must not share memory.

@@ -36,6 +36,9 @@ class FusedConv2d {
   Kernel bf16_kernel() const;
 
  private:
+  // A bf16 input where oneDNN has no bf16 convolution: converted to float32, convolved, rounded back.
+  at::Tensor forward_bf16_in_float32(const at::Tensor& input, bool relu, const at::Tensor& residual) const;
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
