@@ -20,7 +20,6 @@
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/optim/param_adam.h"
-#include "lrf/run/field_kind.h"
 
 namespace fs = std::filesystem;
 
@@ -38,11 +37,8 @@ void build_dataset(const DecoderFinetuneOptions& o, std::vector<Sample>* train, 
   const std::string identity = autoencoder_identity(o.autoencoder, o.encoder);
   torch::NoGradGuard no_grad;
   for (const auto& dir : o.fields) {
-    // A folder without config.json is refused by open_latent_run, as by every command that opens a run.
-    const auto kind = field_kind_of(dir);
-    if (kind && *kind != FieldKind::latent) {
-      fail(dir, "holds a field of space '" + field_kind_name(*kind) + "', not a latent field (make one with `lrf train --space latent`)");
-    }
+    // open_latent_run refuses a folder that is no run, or a run of another kind, as every command that
+    // opens a latent run does.
     LatentRun run = open_latent_run(dir);
     const std::string field_identity = autoencoder_identity(run.autoencoder, run.encoder);
     if (field_identity != identity) {

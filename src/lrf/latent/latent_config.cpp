@@ -2,13 +2,20 @@
 
 #include "lrf/core/error.h"
 #include "lrf/feature/feature_lift.h"
+#include "lrf/run/field_kind.h"
 
 namespace lrf {
 
 LatentConfig parse_latent_config(const nlohmann::json& c, const std::string& path) {
   LatentConfig l;
+  // An RGB run is told as such before the settings a latent field would have are looked for; a latent
+  // NeRF is refused by parse_field_config as not a Gaussian field.
+  const FieldKind kind = field_kind_of_config(c, path);
+  if (kind == FieldKind::rgb) {
+    fail(path, "holds a field of space '" + field_kind_name(kind) +
+                   "', not a latent field (make one with `lrf train --space latent`)");
+  }
   l.field = splat::parse_field_config(c, path);
-  if (l.field.kind != FieldKind::latent) fail(path, "not a latent field");
   try {
     l.autoencoder = c.at("autoencoder").get<std::string>();
     l.encoder = c.value("encoder", std::string());
