@@ -39,8 +39,8 @@ lrf::cli::CommandRegistration reg(11, [](CLI::App& root) {
       ->required();
   cmd->add_option("--max-side", o->max_side,
                   "Downscale the photos (copies of them) so that their longer side is at most this many pixels "
-                  "before COLMAP sees them; the scene's images are that size, less the few pixels undistortion trims. 0: keep "
-                  "the photos' size")
+                  "before COLMAP sees them; the undistorted images of the scene are held to the same bound. 0: keep the "
+                  "photos' size")
       ->capture_default_str();
   cmd->add_option("--matcher", o->matcher,
                   "Which photo pairs COLMAP matches: exhaustive (every pair), sequential (each photo with its "

@@ -317,10 +317,15 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
     StepTimer t;
     fs::remove_all(undistorted);
     log_heading(log, "colmap image_undistorter");
-    run_colmap(o.colmap, "image_undistorter",
-               {"--image_path", images, "--input_path", models.front().first, "--output_path", undistorted.string(),
-                "--output_type", "COLMAP"},
-               log);
+    // Undistorting can widen the image (by up to twice, to keep every photographed pixel), so the
+    // longer side is capped again here: --max-side promises the scene's images, not only the photos.
+    std::vector<std::string> undistort_args = {"--image_path", images, "--input_path", models.front().first,
+                                               "--output_path", undistorted.string(), "--output_type", "COLMAP"};
+    if (o.max_side > 0) {
+      undistort_args.push_back("--max_image_size");
+      undistort_args.push_back(std::to_string(o.max_side));
+    }
+    run_colmap(o.colmap, "image_undistorter", undistort_args, log);
     records.finished("undistort");
     log_info("    done in " + t.elapsed());
   }
