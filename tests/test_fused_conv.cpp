@@ -453,6 +453,77 @@ TEST(WinogradTraining, MixedConv2dGradientsWith2x2TilesMatchFloat64) {
   check_mixed_conv_gradients("2");
 }
 
+// Training in bf16 on a CPU without native bf16 (mixed_layers.cpp): each convolution is a float32 one of
+// the bf16 values of input, weight and bias, its output rounded to bf16 once; the gradients come back
+// rounded to bf16 (the input's in bf16, the weight's and bias's as float32 holding bf16 values). Against
+// float64 on the same bf16 values, what remains is that one rounding, at most 2^-9 of each value, and
+// float32 sums far below it: bounds of 2^-9 rms and 2^-8 of the largest value. Reading the float32
+// master weights unrounded, or a libtorch bf16 kernel rounding its partial sums, would add errors of
+// the same size and break them. Strided, 1x1 and bias-free layers take the same path.
+TEST(MixedConv2dWithoutNativeBf16, IsAFloat32ConvolutionOfTheBf16Values) {
+  lrf::test::ScopedEnv no_bf16("LRF_CPU_BF16", "0");
+  struct Layer {
+    int64_t kernel, stride, pad;
+    bool bias;
+  };
+  for (const Layer& l : {Layer{3, 1, 1, true}, Layer{3, 2, 1, false}, Layer{1, 1, 0, true}}) {
+    SCOPED_TRACE("kernel " + std::to_string(l.kernel) + " stride " + std::to_string(l.stride));
+    torch::manual_seed(31 + l.kernel + l.stride);
+    lrf::MixedConv2d conv(
+        torch::nn::Conv2dOptions(16, 24, l.kernel).stride(l.stride).padding(l.pad).bias(l.bias));
+    {
+      torch::NoGradGuard no_grad;
+      conv->weight.copy_(torch::randn_like(conv->weight) * 0.2);
+      if (l.bias) conv->bias.copy_(torch::randn_like(conv->bias));
+    }
+    const at::Tensor x16 = torch::randn({2, 16, 9, 13}).to(at::kBFloat16);
+    const at::Tensor x = x16.clone().requires_grad_(true);
+    const at::Tensor y = conv->forward(x);
+    ASSERT_EQ(y.scalar_type(), at::kBFloat16);
+    const at::Tensor up = torch::randn(y.sizes()).to(at::kBFloat16);
+    y.backward(up);
+    ASSERT_EQ(x.grad().scalar_type(), at::kBFloat16);
+    ASSERT_EQ(conv->weight.grad().scalar_type(), at::kFloat);
+
+    const at::Tensor w16 = conv->weight.detach().to(at::kBFloat16);
+    const at::Tensor b16 = l.bias ? conv->bias.detach().to(at::kBFloat16) : at::Tensor();
+    const at::Tensor xd = x16.to(at::kDouble).requires_grad_(true);
+    const at::Tensor wd = w16.to(at::kDouble).requires_grad_(true);
+    const at::Tensor bd = l.bias ? b16.to(at::kDouble).requires_grad_(true) : at::Tensor();
+    const at::Tensor yd = at::conv2d(xd, wd, bd, l.stride, l.pad);
+    yd.backward(up.to(at::kDouble));
+    // libtorch's float64 convolution is the plain loop's, and its gradients are central differences of
+    // the loop (the loss sum(up * conv) is linear in each entry, so they are exact but for rounding).
+    EXPECT_LT(max_abs(yd, reference_conv(x16, w16, b16, l.stride, l.pad, {}, false)), 1e-12);
+    const at::Tensor upd = up.to(at::kDouble);
+    auto loss = [&](const at::Tensor& xs, const at::Tensor& ws) {
+      return (reference_conv(xs, ws, b16, l.stride, l.pad, {}, false) * upd).sum().item<double>();
+    };
+    const at::Tensor x0 = x16.to(at::kDouble).contiguous(), w0 = w16.to(at::kDouble).contiguous();
+    for (int64_t i : {0L, 1000L, x0.numel() - 1}) {
+      at::Tensor plus = x0.clone(), minus = x0.clone();
+      plus.view(-1)[i] += 0.5;
+      minus.view(-1)[i] -= 0.5;
+      EXPECT_NEAR(loss(plus, w0) - loss(minus, w0), xd.grad().reshape(-1)[i].item<double>(), 1e-9);
+    }
+    for (int64_t i : {0L, w0.numel() / 2, w0.numel() - 1}) {
+      at::Tensor plus = w0.clone(), minus = w0.clone();
+      plus.view(-1)[i] += 0.5;
+      minus.view(-1)[i] -= 0.5;
+      EXPECT_NEAR(loss(x0, plus) - loss(x0, minus), wd.grad().reshape(-1)[i].item<double>(), 1e-9);
+    }
+
+    std::vector<std::tuple<std::string, at::Tensor, at::Tensor>> pairs = {
+        {"output", y, yd}, {"input gradient", x.grad(), xd.grad()}, {"weight gradient", conv->weight.grad(), wd.grad()}};
+    if (l.bias) pairs.emplace_back("bias gradient", conv->bias.grad(), bd.grad());
+    for (const auto& [what, got, want] : pairs) {
+      const RelativeError e = relative_error(got, want);
+      EXPECT_LT(e.rms, std::ldexp(1.0, -9)) << what;
+      EXPECT_LT(e.max, std::ldexp(1.0, -8)) << what;
+    }
+  }
+}
+
 // A whole decoded view is wider than the 256-pixel tiles that keep oneDNN's AMX weight gradient right
 // (mixed_layers.cpp): Winograd still runs all three passes of it (none of them is oneDNN's), within the
 // same bounds against float64 as a small image.

@@ -146,6 +146,15 @@ TEST(Precision, CommandLineOptionAndEnvironmentChooseIt) {
     ScopedEnv no_bf16("LRF_CPU_BF16", "0");
     EXPECT_EQ(precision_of(""), "fp32");  // the default is auto
     EXPECT_EQ(precision_of("--precision auto"), "fp32");
+    // bf16 forced where the CPU has none still runs, with a warning that it runs emulated.
+    auto forced = lrf::test::run_lrf("--quiet --precision bf16 ae roundtrip --autoencoder " + taef2() + " " + png);
+    EXPECT_EQ(forced.exit_code, 0) << forced.output;
+    EXPECT_NE(forced.output.find("bf16 on a CPU without native bf16"), std::string::npos) << forced.output;
+  }
+  {
+    ScopedEnv bf16("LRF_CPU_BF16", "1");
+    auto native = lrf::test::run_lrf("--quiet --precision bf16 ae roundtrip --autoencoder " + taef2() + " " + png);
+    EXPECT_EQ(native.output.find("without native bf16"), std::string::npos) << native.output;
   }
   {
     ScopedEnv bf16("LRF_CPU_BF16", "1");
@@ -342,13 +351,9 @@ TEST(Bf16Taef2, TrainedWeightsAndTheirGradientsStayFloat32) {
   at::Tensor g32 = gradients(Precision::fp32), g16 = gradients(Precision::bf16);
   const double cos = cosine(g16, g32);
   std::printf("decoder weight gradient, bf16 vs fp32: cosine %.5f, relative error %.4f\n", cos, relative_error(g16, g32));
-  // With native bf16 the convolutions' products are summed in float32 (oneDNN's kernels, Winograd's).
-  // Without it (an AVX2 CPU told --precision bf16, which auto never picks there) libtorch's reference
-  // bf16 kernels run the backward and round more (seen: cosine 0.962 on an AVX2 EPYC): what is checked
-  // there is that training still works with float32 weights and gradients, not bf16's accuracy.
-  if (lrf::cpu_has_bf16()) {
-    EXPECT_GT(cos, 0.99);
-  }
+  // The convolutions' products of bf16 values are summed in float32: oneDNN's kernels and Winograd's with
+  // native bf16, float32 convolutions of the bf16-rounded tensors without it (mixed_layers.cpp).
+  EXPECT_GT(cos, 0.99);
   for (const auto& q : ae->encoder_parameters()) EXPECT_FALSE(q.grad().defined());
 }
 
@@ -362,9 +367,6 @@ TEST(Bf16Taef2, TrainedWeightsAndTheirGradientsStayFloat32) {
 // 0.207 and 1 - cosine 0.0031, so the cosine's bound is 0.994 there (about twice again).
 // A squared error, whose upstream gradient moves smoothly with the decode (an L1 loss's signs flip).
 TEST(Bf16Taef2, DecoderWeightGradientOfAWholeViewAgreesWithFp32) {
-  // Bounds of bf16's float32-summed kernels; without native bf16 libtorch's reference kernels run it
-  // (see TrainedWeightsAndTheirGradientsStayFloat32), a path auto never takes.
-  if (!lrf::cpu_has_bf16()) GTEST_SKIP() << "this CPU has no native bf16 (AVX512_BF16 or AMX)";
   auto ae = lrf::load_autoencoder(taef2());
   ae->set_encoder_trainable(false);
   at::Tensor x = fern_view(8);

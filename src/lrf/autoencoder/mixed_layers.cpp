@@ -7,6 +7,7 @@
 #include <torch/autograd.h>
 
 #include "lrf/autoencoder/conv/winograd_training.h"
+#include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -139,6 +140,19 @@ bool MixedConv2dImpl::runs_winograd(const at::Tensor& input) const {
 
 at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
   if (runs_winograd(input)) return winograd_conv3x3_trained(input, weight, bias);
+  if (input.scalar_type() == at::kBFloat16 && !cpu_has_bf16()) {
+    // Without native bf16, oneDNN has no bf16 convolution (AVX2) or emulates one, and libtorch's
+    // reference kernels run the backward about 40x slower than fp32 (bench_autoencoder backward on a
+    // 2-core EPYC with AVX2). So the bf16 values of input, weight and bias are convolved in float32 and
+    // the output rounded to bf16 once: the arithmetic of a native bf16 layer (products of bf16 values,
+    // float32 sums) at fp32's cost. Autograd carries the casts: the input gradient comes back in bf16,
+    // the weight's in float32, each from float32 convolutions of bf16-rounded tensors.
+    const at::Tensor w = weight.to(at::kBFloat16).to(at::kFloat);
+    const at::Tensor b = bias.defined() ? bias.to(at::kBFloat16).to(at::kFloat) : bias;
+    return at::conv2d(input.to(at::kFloat), w, b, options.stride(), c10::get<torch::ExpandingArray<2>>(options.padding()),
+                      options.dilation(), options.groups())
+        .to(at::kBFloat16);
+  }
   if (needs_tiles(input)) {
     return conv2d_in_tiles(input, weight, bias, options.stride(), c10::get<torch::ExpandingArray<2>>(options.padding()),
                            options.dilation(), options.groups(), kWeightGradientTile);
