@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/core/threads.h"
@@ -78,8 +80,25 @@ struct RoundtripOptions {
   std::string output_dir;
 };
 
+// The file `lrf ae roundtrip -o DIR` writes the decode of `image` to.
+std::string roundtrip_output(const std::string& dir, const std::string& image) {
+  return (std::filesystem::path(dir) / (std::filesystem::path(image).stem().string() + ".png")).string();
+}
+
 int run_roundtrip(const ModelOptions& m, const RoundtripOptions& o) {
   torch::NoGradGuard no_grad;
+  if (!o.output_dir.empty()) {
+    // Checked before any work: a decode written over an input image (`-o .` beside the PNGs) would replace
+    // the photo, and two images of one name would leave only the later decode.
+    std::set<std::string> targets;
+    for (const auto& image : o.images) {
+      const std::string target = roundtrip_output(o.output_dir, image);
+      for (const auto& input : o.images) lrf::refuse_output_over_input(target, input, "an input image");
+      if (!targets.insert(lrf::canonical_path(target)).second)
+        lrf::fail_usage(target + ": two of the images would both be decoded to this file (their names differ only "
+                                 "in the extension or folder)");
+    }
+  }
   auto ae = load_model(m);
   nlohmann::json items = nlohmann::json::array();
   double psnr_sum = 0, enc_sum = 0, dec_sum = 0;
@@ -105,10 +124,7 @@ int run_roundtrip(const ModelOptions& m, const RoundtripOptions& o) {
     dec_sum += dec;
     std::string size = std::to_string(cropped.width) + "x" + std::to_string(cropped.height);
     if (!o.json) std::printf("%-40s %9s %8.2f %9.3f %9.3f\n", path.c_str(), size.c_str(), p, enc, dec);
-    if (!o.output_dir.empty()) {
-      std::string name = std::filesystem::path(path).stem().string() + ".png";
-      lrf::write_image_rgb((std::filesystem::path(o.output_dir) / name).string(), lrf::tensor_to_image(y));
-    }
+    if (!o.output_dir.empty()) lrf::write_image_rgb(roundtrip_output(o.output_dir, path), lrf::tensor_to_image(y));
     items.push_back({{"path", path},
                      {"width", cropped.width},
                      {"height", cropped.height},
@@ -146,6 +162,7 @@ struct EncodeOptions {
 
 int run_encode(const ModelOptions& m, const EncodeOptions& o) {
   torch::NoGradGuard no_grad;
+  lrf::refuse_output_over_input(o.output, o.image, "the input image");
   auto ae = load_model(m);
   cv::Size original, cropped;
   at::Tensor x = load_image(o.image, &original, &cropped);
@@ -170,6 +187,7 @@ struct DecodeOptions {
 
 int run_decode(const ModelOptions& m, const DecodeOptions& o) {
   torch::NoGradGuard no_grad;
+  lrf::refuse_output_over_input(o.output, o.latent, "the input latent");
   lrf::StateDict sd = lrf::load_state_dict(o.latent);
   const at::Tensor* z = sd.find("latent");
   if (!z) lrf::fail(o.latent, "no tensor named 'latent' (write one with `lrf ae encode`)");
@@ -194,6 +212,7 @@ struct ConvertOptions {
 };
 
 int run_convert(const ConvertOptions& o) {
+  lrf::refuse_output_over_input(o.output, o.input, "the checkpoint being converted");
   lrf::StateDict sd = lrf::load_state_dict(o.input);
   lrf::StateDict out;
   for (const auto& item : sd) {

@@ -9,12 +9,12 @@
 #include "scene_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/run/field_kind.h"
 #include "lrf/scene/run_scene_location.h"
-#include "lrf/scene/scene.h"
 #include "lrf/scene/scene.h"
 #include "lrf/rgb/rgb_train_run.h"
 #include "lrf/splat/run/run_config.h"
@@ -260,6 +260,8 @@ int run_train(const TrainOptions& o) {
   const auto named = field_kind_named(o.space);
   if (!named) fail_usage("--space must be rgb, latent or latent-nerf, got '" + o.space + "'");
   const FieldKind kind = *named;
+  // A fresh run written into its scene's folder would mix run files with the user's data (--force included).
+  if (!o.resume && !o.out.empty()) refuse_output_over_input(o.out, o.scene, "the scene folder");
   if (o.rgb_guide != 0 && kind != FieldKind::latent) fail_usage("--rgb-guide applies to --space latent");
   if (o.inria_rates && kind != FieldKind::latent) fail_usage("--inria-rates applies to --space latent");
   if (o.coarse_factor < 1) fail_usage("--coarse-factor must be at least 1");

@@ -208,6 +208,7 @@ const std::vector<std::string>& compare_methods() {
 
 nlohmann::json run_compare(const CompareOptions& o) {
   for (const auto& m : o.methods) compare_method(m);  // an unknown name is refused before any work
+  refuse_output_over_input(o.out, o.scene, "the scene folder");
   fs::create_directories(o.out);
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
   const std::string summary_path = (fs::path(o.out) / "compare.json").string();

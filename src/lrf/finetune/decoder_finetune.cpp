@@ -13,6 +13,7 @@
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/seed_stream.h"
 #include "lrf/finetune/finetune_loop.h"
@@ -138,6 +139,9 @@ at::Tensor share_loss(Autoencoder& ae, const std::pair<at::Tensor, at::Tensor>& 
 DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (o.fields.empty()) fail("finetune-decoder: give at least one latent field with --fields");
   if (o.out.empty()) fail("finetune-decoder: no output file (-o)");
+  if (!o.decoder.empty()) refuse_output_over_input(o.out, o.decoder, "the starting decoder");
+  if (!o.encoder.empty()) refuse_output_over_input(o.out, o.encoder, "the fields' encoder");
+  refuse_output_over_input(o.out, o.autoencoder, "the autoencoder's weights");
   if (o.steps < 1 || o.batch < 1) fail("finetune-decoder: --steps and --batch must be at least 1");
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");

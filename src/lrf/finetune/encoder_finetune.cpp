@@ -11,6 +11,7 @@
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/seed_stream.h"
 #include "lrf/finetune/finetune_output.h"
@@ -170,6 +171,8 @@ nlohmann::json stage1_inputs(const EncoderFinetuneOptions& o, const std::vector<
 EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   namespace fs = std::filesystem;
   if (o.scenes.empty()) fail("finetune-encoder: give at least one scene with --scenes");
+  if (!o.encoder.empty()) refuse_output_over_input(o.out, o.encoder, "the starting encoder");
+  refuse_output_over_input(o.out, o.autoencoder, "the autoencoder's weights");
   if (!o.correspondence_files.empty() && o.correspondence_files.size() != o.scenes.size()) {
     fail("finetune-encoder: " + std::to_string(o.correspondence_files.size()) + " correspondence files for " +
          std::to_string(o.scenes.size()) + " scenes (give one per scene, in the same order)");

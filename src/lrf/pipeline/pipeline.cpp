@@ -527,6 +527,9 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   if (o.out.empty()) fail("pipeline: no output folder (-o)");
   // Every scene and its resolution, checked before any stage (this reads each scene's cameras).
   const PipelineScenes scenes = resolve_pipeline_scenes(o.train_scenes, o.eval_scenes, o.max_side);
+  for (const auto* list : {&scenes.train, &scenes.eval}) {
+    for (const auto& scene : *list) refuse_output_over_input(o.out, scene, "a scene folder");
+  }
   const auto& resolution = scenes.used;
   const Paths paths{o.out, protocol_suffix(o.eval_train_views)};
   require_same_view_images(paths);

@@ -14,6 +14,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
+#include "lrf/scene/scene_outputs.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
@@ -149,6 +150,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
   using namespace lrf::splat;
   check_options(options);
   LatentRun src = open_latent_run(options.run);
+  refuse_output_in_scene(options.out, src.scene, "-o");
   const RefineOptions o = with_refine_steps_of(options, src.config, (fs::path(options.run) / "config.json").string());
   if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
   if (src.lift.defined())
