@@ -146,7 +146,7 @@ TEST(Precision, CommandLineOptionAndEnvironmentChooseIt) {
     ScopedEnv no_bf16("LRF_CPU_BF16", "0");
     EXPECT_EQ(precision_of(""), "fp32");  // the default is auto
     EXPECT_EQ(precision_of("--precision auto"), "fp32");
-    // bf16 forced where the CPU has none still runs, with a warning that it runs emulated.
+    // bf16 forced where the CPU has none still runs, with a warning that it gains nothing there.
     auto forced = lrf::test::run_lrf("--quiet --precision bf16 ae roundtrip --autoencoder " + taef2() + " " + png);
     EXPECT_EQ(forced.exit_code, 0) << forced.output;
     EXPECT_NE(forced.output.find("bf16 on a CPU without native bf16"), std::string::npos) << forced.output;

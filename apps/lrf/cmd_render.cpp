@@ -55,7 +55,7 @@ int run_render_path(const RenderOptions& o) {
   camera_path::PathOptions po;
   po.frames = o.frames;
   camera_path::PathGeometry geometry;
-  if (!o.frames_dir.empty()) refuse_output_in_scene(o.frames_dir, frames->scene(), "--frames-dir");
+  if (!o.frames_dir.empty()) refuse_output_in_scene(o.frames_dir, frames->scene());
   auto path = camera_path::make_path(frames->scene(), kind, po, &geometry);
   for (auto& c : path) c = splat::scaled_camera(c, o.scale, o.width, o.height);
   video::PathVideoOptions vo;
@@ -143,7 +143,7 @@ int run_render(const RenderOptions& o) {
   if (!nerf_field && !latent)
     for (int i : indices) cameras.push_back(scaled_camera(run.scene.views[size_t(i)].camera, o.scale, o.width, o.height));
   const std::string dir = o.dir.empty() ? (fs::path(o.out) / "renders" / o.split).string() : o.dir;
-  refuse_output_in_scene(dir, run.scene, "-o");
+  refuse_output_in_scene(dir, run.scene);
   fs::create_directories(dir);
   if (nerf_field) {
     auto ae = load_autoencoder(nrun.autoencoder, nrun.encoder, o.decoder);

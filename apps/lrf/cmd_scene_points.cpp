@@ -50,7 +50,7 @@ int run_points(PointsOptions o) {
   if (o.views != "all" && o.views != "train") fail_usage("--views must be all or train");
   o.t.training_views_only = o.views == "train";
   Scene scene = load_scene(o.scene, o.scene_options);
-  for (const auto& path : o.outputs) refuse_output_over_scene_files(path, scene, "-o");
+  for (const auto& path : o.outputs) refuse_output_over_scene_files(path, scene);
   if (!o.min_track_given) o.t = few_shot_triangulation(scene.few_shot_views, o.t);  // as training triangulates the split
   TriangulatedPoints result;
   std::string cache_path;

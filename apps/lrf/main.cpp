@@ -148,7 +148,7 @@ int main(int argc, char** argv) {
   set_thread_count(threads);
   try {
     if (!precision.empty()) set_default_precision(parse_precision(precision));
-    // a bad $LRF_PRECISION or $LRF_CPU_BF16 is reported before any work
+    // Resolved here so that a bad $LRF_PRECISION or $LRF_CPU_BF16 is reported before any work.
     if (resolve_precision(default_precision()) == Precision::bf16 && !cpu_has_bf16()) {
       // Forced bf16 still runs, with bf16's rounding, but its convolutions are float32 ones on bf16 values:
       // a choice made for speed buys none here, which nothing else would tell the user.

@@ -14,7 +14,6 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
-#include "lrf/scene/scene_outputs.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
@@ -26,6 +25,7 @@
 #include "lrf/optim/param_adam.h"
 #include "lrf/refine/decoded_loss.h"
 #include "lrf/scene/run_scene_location.h"
+#include "lrf/scene/scene_outputs.h"
 #include "lrf/splat/render_field.h"
 #include "lrf/splat/run/train_run.h"
 #include "lrf/splat/train/loss.h"
@@ -150,7 +150,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
   using namespace lrf::splat;
   check_options(options);
   LatentRun src = open_latent_run(options.run);
-  refuse_output_in_scene(options.out, src.scene, "-o");
+  refuse_output_in_scene(options.out, src.scene);
   const RefineOptions o = with_refine_steps_of(options, src.config, (fs::path(options.run) / "config.json").string());
   if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
   if (src.lift.defined())

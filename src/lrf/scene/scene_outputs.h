@@ -6,13 +6,12 @@
 
 namespace lrf {
 
-// Throws lrf::UsageError naming `output` when it is the scene's own folder or a folder the scene's images are
-// read from (writing renders there would replace photos of the same name, or add images the scene would
-// read next time). `option` is the command-line option that named it, for the message.
-void refuse_output_in_scene(const std::string& output, const Scene& scene, const std::string& option);
+// refuse_output_over_input (core/paths.h) for a folder: the scene's own folder and every folder the scene's
+// images are read from (writing renders there would replace photos of the same name, or add images the
+// scene would read next time).
+void refuse_output_in_scene(const std::string& output, const Scene& scene);
 
-// Throws lrf::UsageError naming `output` when it is a file the scene was read from: its SfM points or one
-// of its images.
-void refuse_output_over_scene_files(const std::string& output, const Scene& scene, const std::string& option);
+// refuse_output_over_input for a file: the scene's SfM points file and each of its images.
+void refuse_output_over_scene_files(const std::string& output, const Scene& scene);
 
 }  // namespace lrf
