@@ -12,6 +12,9 @@
 
 #include <gtest/gtest.h>
 
+#include "lrf/core/atomic_file.h"
+#include "lrf/core/safetensors.h"
+
 namespace lrf_test {
 
 inline const char* kPython = "/usr/bin/python3";
@@ -84,5 +87,18 @@ inline std::filesystem::path cached_fixture(const std::string& name, const std::
 }
 
 inline std::string shared_dir() { return LRF_SHARED_DIR; }
+
+// Writes {"image": image} to a file named after its content under <build>/test_fixtures and returns its
+// path: an input the reference script reads, whose PyTorch output cached_fixture can then cache.
+inline std::string fixture_input(const std::string& name, const at::Tensor& image) {
+  lrf::StateDict input;
+  input.insert("image", image);
+  const std::string bytes = lrf::serialize_safetensors(input);
+  const std::filesystem::path path = std::filesystem::path(LRF_BINARY).parent_path() / "test_fixtures" /
+                                     (name + "-input-" + std::to_string(std::hash<std::string>{}(bytes)) + ".safetensors");
+  std::filesystem::create_directories(path.parent_path());
+  if (!std::filesystem::exists(path)) lrf::write_file_atomic(path.string(), bytes);
+  return path.string();
+}
 
 }  // namespace lrf_test

@@ -59,14 +59,8 @@ TEST(TinyAutoencoder, Taef2MatchesPyTorchOnRealImage) {
   at::Tensor x = lrf::image_to_batch(image);
 
   // The input goes to a path named after its content, so that the PyTorch output can be cached.
-  lrf::StateDict input;
-  input.insert("image", x);
-  std::string bytes = lrf::serialize_safetensors(input);
-  fs::path input_path = fs::path(LRF_BINARY).parent_path() / "test_fixtures" /
-                        ("taef2-input-" + std::to_string(std::hash<std::string>{}(bytes)) + ".safetensors");
-  fs::create_directories(input_path.parent_path());
-  if (!fs::exists(input_path)) lrf::write_file_atomic(input_path.string(), bytes);
-  fs::path dir = lrf_test::cached_fixture("taef2", "taef2 --weights " + taef2_dir() + " --input " + input_path.string());
+  const std::string input_path = lrf_test::fixture_input("taef2", x);
+  fs::path dir = lrf_test::cached_fixture("taef2", "taef2 --weights " + taef2_dir() + " --input " + input_path);
   ASSERT_FALSE(dir.empty());
   auto ref = lrf::read_safetensors((dir / "ref.safetensors").string());
 

@@ -114,3 +114,22 @@ TEST(CliAe, ConvertKeepsTensorsAndRefusesNonCheckpoints) {
   EXPECT_FALSE(fs::exists(dir / "x.safetensors"));
   fs::remove_all(dir);
 }
+
+TEST(CliAe, ConvertFindsTheModelInATrainingCheckpoint) {
+  // VAElight's checkpoints are torch.save({model, optimizer, loss, iterations}): the model's 56 weights,
+  // not the scalar loss, and the converted file is a decoder lrf loads.
+  auto dir = lrf_test::fresh_dir("cli_convert_nested");
+  const std::string in = lrf_test::shared_dir() + "/models/vaelight/vaelight_decoder_12870.pt";
+  const std::string out = (dir / "vaelight_decoder.safetensors").string();
+  Result c = run("ae convert " + in + " -o " + out);
+  ASSERT_EQ(c.code, 0) << c.out;
+  auto b = lrf::read_safetensors(out);
+  EXPECT_EQ(b.size(), 56u);
+  ASSERT_TRUE(b.contains("c4v3.weight"));
+  EXPECT_EQ(b["c4v3.weight"].sizes(), (std::vector<int64_t>{16, 16, 2, 2}));
+  EXPECT_FALSE(b.contains("loss"));
+  Result d = run("ae roundtrip " + fern(0) + " --autoencoder vaelight --decoder " + out);
+  EXPECT_EQ(d.code, 0) << d.out;
+  EXPECT_NE(d.out.find("decoder " + out), std::string::npos) << d.out;
+  fs::remove_all(dir);
+}

@@ -81,6 +81,17 @@ TEST_F(TorchZipCases, ViewsOffsetsStridesAndDtypesMatchPyTorch) {
   EXPECT_EQ(got.size(), want.size() + 1);  // non-tensor entries (epoch, note) skipped
 }
 
+TEST_F(TorchZipCases, TrainingCheckpointYieldsItsModelAndScalarsAloneAreNoWeights) {
+  // torch.save({"model": ..., "optimizer": ..., "loss": tensor, "iterations": 7}): the model's weights,
+  // not the root's scalar loss.
+  lrf::StateDict got = lrf::load_state_dict(path("training.pth"));
+  lrf::StateDict want = lrf::load_state_dict(path("training_expected.safetensors"));
+  ASSERT_EQ(got.size(), want.size());
+  for (const auto& w : want) EXPECT_TRUE(torch::equal(got[w.key()], w.value())) << w.key();
+  expect_error([&] { lrf::load_state_dict(path("scalars_only.pth")); },
+               {"scalars_only.pth", "no weights", "loss"});
+}
+
 TEST_F(TorchZipCases, HandBuiltArchiveWithStridedView) {
   lrf::StateDict sd = lrf::load_state_dict(path("handmade_ok.pth"));
   EXPECT_TRUE(torch::equal(sd["w"], torch::tensor({2.0f, 4.0f})));

@@ -8,6 +8,9 @@ Writes fixtures into the folder given on the command line, never into the reposi
   kl      --out DIR [--ch 32] [--size 64] [--seed 0]
           KL-f8 AutoencoderKL (ldm's architecture) with random weights, saved as ldm and diffusers key
           layouts in .safetensors and .ckpt, plus reference.safetensors {"image", "moments", "decoded"}.
+  vaelight --weights DIR --input IN.safetensors --out DIR
+          VAElight (the README of its weights, written with nn.ConvTranspose2d and F.interpolate) on the
+          real checkpoints: DIR/ref.safetensors {"latent", "decoded"} for the input {"image"} in [0, 1].
   zipcases --out DIR
           torch.save checkpoints with views / dtypes ({"views.pth", "views_expected.safetensors"}) and
           hostile archives built as bytes (nothing is executed): evil_*.pth, huge_storage.pth,
@@ -120,6 +123,77 @@ def cmd_taef2(a):
     with torch.no_grad():
         latent = enc.float()(image)
         decoded = dec.float()(latent).clamp(0, 1)
+    os.makedirs(a.out, exist_ok=True)
+    save_safetensors(os.path.join(a.out, "ref.safetensors"), {"latent": latent, "decoded": decoded})
+
+
+# ---------- VAElight (4 channels, SD's latent space) ----------
+class VaeLightEncoder(nn.Module):
+    def __init__(self):
+        super().__init__()
+        down = lambda i, o: nn.Conv2d(i, o, 2, stride=2)
+        self.cv1, self.cv2, self.cv3 = down(3, 16), conv(16, 32), down(32, 32)
+        self.cv4, self.cv5, self.cv6 = conv(32, 64), down(64, 64), conv(64, 4)
+        self.cv14, self.cv15, self.cv16 = conv(3, 64), conv(64, 64), conv(64, 64)
+        self.cv17, self.cv18 = conv(64, 128), conv(128, 4)
+        self.norm1, self.norm2, self.norm3 = nn.LayerNorm(32), nn.LayerNorm(64), nn.LayerNorm(4)  # unused
+
+    def forward(self, x):
+        a = x
+        for layer in (self.cv1, self.cv2, self.cv3, self.cv4, self.cv5):
+            a = F.leaky_relu(layer(a), 0.01)
+        a = self.cv6(a)
+        b = F.avg_pool2d(x, 8)
+        for layer in (self.cv14, self.cv15, self.cv16, self.cv17):
+            b = F.leaky_relu(layer(b), 0.01)
+        return a + self.cv18(b)
+
+
+class VaeLightDecoder(nn.Module):
+    # Each branch: names with "T" for a transposed convolution (kernel 2, stride 2).
+    BRANCHES = [
+        [("cv1", 4, 8), ("cv2", 8, 16), ("cv3", 16, 16, "T"), ("cv4", 16, 32), ("cv5", 32, 64),
+         ("cv6", 64, 64, "T"), ("cv7", 64, 64), ("cv8", 64, 64), ("cv9", 64, 64, "T"), ("cv10", 64, 64),
+         ("cv11", 64, 3)],
+        [("c4v1", 4, 8), ("c4v2", 8, 16), ("c4v3", 16, 16, "T"), ("c4v4", 16, 32), ("c4v5", 32, 64),
+         ("c4v6", 64, 64, "T"), ("c4v7", 64, 64), ("c4v8", 64, 3)],
+        [("c3v1", 4, 8), ("c3v2", 8, 16), ("c3v3", 16, 16, "T"), ("c3v4", 16, 32), ("c3v5", 32, 3)],
+        [("c2v1", 4, 8), ("c2v2", 8, 16), ("c2v3", 16, 32), ("c2v4", 32, 3)],
+    ]
+
+    def __init__(self):
+        super().__init__()
+        for branch in self.BRANCHES:
+            for spec in branch:
+                name, i, o = spec[:3]
+                layer = nn.ConvTranspose2d(i, o, 2, stride=2) if len(spec) == 4 else conv(i, o)
+                setattr(self, name, layer)
+
+    def forward(self, z):
+        out = 0
+        for branch, scale in zip(self.BRANCHES, (1, 2, 4, 8)):
+            y = z
+            for n, spec in enumerate(branch):
+                y = getattr(self, spec[0])(y)
+                if n + 1 < len(branch):
+                    y = F.leaky_relu(y, 0.01)
+            if scale > 1:
+                y = F.interpolate(y, scale_factor=scale, mode="bilinear", align_corners=False)
+            out = out + y
+        return out
+
+
+def cmd_vaelight(a):
+    files = sorted(os.listdir(a.weights))
+    enc_file = [f for f in files if "encoder" in f and f.endswith(".pt")][0]
+    dec_file = [f for f in files if "decoder" in f and f.endswith(".pt")][0]
+    enc, dec = VaeLightEncoder(), VaeLightDecoder()
+    enc.load_state_dict(torch.load(os.path.join(a.weights, enc_file), map_location="cpu")["model"])
+    dec.load_state_dict(torch.load(os.path.join(a.weights, dec_file), map_location="cpu")["model"])
+    image = load_safetensors(a.input)["image"].float()
+    with torch.no_grad():
+        latent = enc(image * 2 - 1)
+        decoded = (dec(latent).clamp(-1, 1) + 1) / 2
     os.makedirs(a.out, exist_ok=True)
     save_safetensors(os.path.join(a.out, "ref.safetensors"), {"latent": latent, "decoded": decoded})
 
@@ -345,6 +419,14 @@ def cmd_zipcases(a):
         ("shared_again", base[0]),             # shares base's storage
     ])
     torch.save({"state_dict": tensors, "epoch": 3, "note": "hello"}, os.path.join(a.out, "views.pth"))
+    # A training checkpoint (torch.save of model, optimizer, loss, step), and one that holds no weights.
+    model = collections.OrderedDict([("conv.weight", torch.randn(2, 3, 1, 1)), ("conv.bias", torch.randn(2))])
+    optimizer = {"state": {0: {"step": torch.tensor(7.0), "exp_avg": torch.randn(2, 3, 1, 1)}},
+                 "param_groups": [{"lr": 1e-3, "params": [0, 1]}]}
+    torch.save({"model": model, "optimizer": optimizer, "loss": torch.tensor(0.25), "iterations": 7},
+               os.path.join(a.out, "training.pth"))
+    save_safetensors(os.path.join(a.out, "training_expected.safetensors"), model)
+    torch.save({"loss": torch.tensor(0.25), "iterations": 7}, os.path.join(a.out, "scalars_only.pth"))
     save_safetensors(os.path.join(a.out, "views_expected.safetensors"),
                      collections.OrderedDict((k, v.contiguous()) for k, v in tensors.items() if k != "empty"))
     # Hostile pickles: globals outside the allow-list, as GLOBAL and as STACK_GLOBAL (protocol 4).
@@ -392,11 +474,15 @@ def main():
     k.add_argument("--ch", type=int, default=32)
     k.add_argument("--size", type=int, default=64)
     k.add_argument("--seed", type=int, default=0)
+    v = sub.add_parser("vaelight")
+    v.add_argument("--weights", required=True)
+    v.add_argument("--input", required=True)
+    v.add_argument("--out", required=True)
     z = sub.add_parser("zipcases")
     z.add_argument("--out", required=True)
     a = p.parse_args()
     torch.set_num_threads(2)
-    {"taef2": cmd_taef2, "kl": cmd_kl, "zipcases": cmd_zipcases}[a.cmd](a)
+    {"taef2": cmd_taef2, "kl": cmd_kl, "vaelight": cmd_vaelight, "zipcases": cmd_zipcases}[a.cmd](a)
 
 
 if __name__ == "__main__":

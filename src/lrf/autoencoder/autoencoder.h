@@ -30,7 +30,7 @@ struct WindowEdges {
 class Autoencoder {
  public:
   virtual ~Autoencoder() = default;
-  // "tiny" (TAESD family) or "kl-f8" (Stable Diffusion's AutoencoderKL).
+  // "tiny" (TAESD family), "kl-f8" (Stable Diffusion's AutoencoderKL) or "vaelight" (distilled from it).
   virtual std::string kind() const = 0;
   virtual int latent_channels() const = 0;
   int factor() const { return 8; }

@@ -5,6 +5,7 @@
 #include "lrf/autoencoder/kl_vae.h"
 #include "lrf/autoencoder/resolve.h"
 #include "lrf/autoencoder/tiny_ae.h"
+#include "lrf/autoencoder/vaelight.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -36,7 +37,11 @@ std::unique_ptr<Autoencoder> load_autoencoder(const std::string& name_or_path, c
     ae = std::make_unique<KLAutoencoder>(enc, files.encoder);
   } else {
     StateDict dec = files.decoder == files.encoder ? enc : load_state_dict(files.decoder);
-    ae = std::make_unique<TinyAutoencoder>(enc, files.encoder, dec, files.decoder);
+    if (VaeLightAutoencoder::recognises(enc) || VaeLightAutoencoder::recognises(dec)) {
+      ae = std::make_unique<VaeLightAutoencoder>(enc, files.encoder, dec, files.decoder);
+    } else {
+      ae = std::make_unique<TinyAutoencoder>(enc, files.encoder, dec, files.decoder);
+    }
   }
   std::string description = ae->kind() + " (" + std::to_string(ae->latent_channels()) + " ch) from " + files.source;
   if (!encoder_override.empty()) {

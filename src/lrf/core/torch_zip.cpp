@@ -1,6 +1,8 @@
 #include "lrf/core/torch_zip.h"
 
 #include <map>
+#include <utility>
+#include <vector>
 
 #include <torch/torch.h>
 
@@ -70,20 +72,46 @@ pickle::Ref read_archive(ZipReader& zip) {
   return pickle::unpickle(bytes, path + ":" + pkl->name, persistent_load);
 }
 
+using Kind = pickle::Value::Kind;
+
+// Whether a dict holds a weight: a tensor entry of at least one dimension (a training checkpoint's
+// `loss` or `step` is a scalar tensor, not a weight).
+bool holds_weights(const pickle::Value& dict) {
+  for (const auto& [k, v] : dict.entries)
+    if (k->kind == Kind::string && v->kind == Kind::tensor && v->tensor.dim() > 0) return true;
+  return false;
+}
+
+// The dict that holds the weights: the root when it holds any, else the one nested dict that does (a
+// training checkpoint's "state_dict", "model", ...); where several do, the first of kPreferred.
+const pickle::Value& weights_dict(const pickle::Value& root, const std::string& path) {
+  static const char* const kPreferred[] = {"state_dict", "model_state_dict", "model", "module", "net"};
+  std::vector<std::pair<std::string, const pickle::Value*>> nested;
+  for (const auto& [k, v] : root.entries)
+    if (k->kind == Kind::string && v->kind == Kind::dict && holds_weights(*v)) nested.emplace_back(k->text, v.get());
+  for (const char* name : kPreferred)
+    for (const auto& [key, dict] : nested)
+      if (key == name) return *dict;
+  if (holds_weights(root)) return root;
+  if (nested.size() == 1) return *nested[0].second;
+  std::string names, scalars;
+  for (const auto& [key, dict] : nested) names += (names.empty() ? "" : ", ") + key;
+  if (!nested.empty()) fail(path, "checkpoint holds several dicts of weights (" + names + "): which is the model's is unclear");
+  for (const auto& [k, v] : root.entries)
+    if (k->kind == Kind::string && v->kind == Kind::tensor) scalars += (scalars.empty() ? "" : ", ") + k->text;
+  fail(path, scalars.empty() ? "checkpoint holds no tensors"
+                             : "checkpoint holds no weights, only scalar tensors (" + scalars + ")");
+}
+
 StateDict state_dict_of(const pickle::Ref& root, const std::string& path) {
-  using K = pickle::Value::Kind;
-  if (root->kind != K::dict) fail(path, "checkpoint does not hold a dict of tensors");
-  const pickle::Value* dict = root.get();
-  for (const auto& [k, v] : root->entries) {
-    if (k->kind == K::string && k->text == "state_dict" && v->kind == K::dict) dict = v.get();
-  }
+  if (root->kind != Kind::dict) fail(path, "checkpoint does not hold a dict of tensors");
+  const pickle::Value& dict = weights_dict(*root, path);
   StateDict out;
-  for (const auto& [k, v] : dict->entries) {
-    if (k->kind != K::string || v->kind != K::tensor) continue;
+  for (const auto& [k, v] : dict.entries) {
+    if (k->kind != Kind::string || v->kind != Kind::tensor) continue;
     if (out.contains(k->text)) fail(path, "duplicate tensor name " + k->text);
     out.insert(k->text, v->tensor);
   }
-  if (out.is_empty()) fail(path, "checkpoint holds no tensors");
   return out;
 }
 

@@ -11,8 +11,9 @@ namespace lrf {
 
 // The unpickled root object, tensors resolved against the archive's storages.
 pickle::Ref read_torch_zip(const std::string& path);
-// The state dict in a checkpoint: the root dict, or root["state_dict"] when present; entries whose
-// values are not tensors are skipped. Throws lrf::Error if there is no tensor at all.
+// The state dict in a checkpoint: the root dict, or a dict nested in a training checkpoint ("state_dict",
+// "model", ...: the one that holds weights); entries whose values are not tensors are skipped. Throws
+// lrf::Error when no dict holds a weight (a tensor of at least one dimension), naming what it found.
 StateDict read_torch_state_dict(const std::string& path);
 // Same as the two above, from the archive's bytes already in memory (`name` is used in error messages).
 pickle::Ref parse_torch_zip(const std::string& bytes, const std::string& name);
