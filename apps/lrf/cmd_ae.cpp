@@ -3,7 +3,9 @@
 //   encode     image -> latent (.safetensors, tensor "latent" [C, H/8, W/8], raw float32)
 //   decode     latent -> image
 //   convert    any supported checkpoint -> .safetensors
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <memory>
 #include <set>
@@ -60,10 +62,15 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Reads and centre-crops an image; returns [1,3,H,W] and fills the crop description.
-at::Tensor load_image(const std::string& path, cv::Size* original, cv::Size* cropped) {
+// Reads an image, area-resizes it by `downscale` as a scene's --downscale does (each side divided and
+// rounded), centre-crops it; returns [1,3,H,W] and fills the crop description.
+at::Tensor load_image(const std::string& path, cv::Size* original, cv::Size* cropped, int downscale = 1) {
   cv::Mat image = lrf::read_image_rgb(path);
   *original = image.size();
+  if (downscale > 1) {
+    image = lrf::resize_area(image, std::max(1, static_cast<int>(std::lround(double(image.cols) / downscale))),
+                             std::max(1, static_cast<int>(std::lround(double(image.rows) / downscale))));
+  }
   cv::Mat crop;
   try {
     crop = lrf::center_crop_to_multiple(image, 8);
@@ -76,6 +83,7 @@ at::Tensor load_image(const std::string& path, cv::Size* original, cv::Size* cro
 
 struct RoundtripOptions {
   std::vector<std::string> images;
+  int downscale = 1;
   bool json = false;
   std::string output_dir;
 };
@@ -106,7 +114,7 @@ int run_roundtrip(const ModelOptions& m, const RoundtripOptions& o) {
   if (!o.json) std::printf("%-40s %9s %8s %9s %9s\n", "image", "size", "PSNR dB", "encode s", "decode s");
   for (const auto& path : o.images) {
     cv::Size original, cropped;
-    at::Tensor x = load_image(path, &original, &cropped);
+    at::Tensor x = load_image(path, &original, &cropped, o.downscale);
     if (!warmed_up) {
       // The first call builds oneDNN kernels for this size; keep that out of the reported times.
       ae->decode(ae->encode(x));
@@ -240,6 +248,11 @@ lrf::cli::CommandRegistration reg(40, [](CLI::App& root) {
   auto ro = std::make_shared<RoundtripOptions>();
   rt->add_option("images", ro->images, "Images to round-trip (PNG, JPG, ...)")->required()->check(CLI::ExistingFile);
   add_model_options(rt, rm);
+  rt->add_option("--downscale", ro->downscale,
+                 "Area-resize each image by this integer factor first, as a scene's --downscale does (e.g. 2 for "
+                 "LLFF flower and room at about 500x375)")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
   rt->add_flag("--json", ro->json, "Print one JSON object (keys psnr_mean, images, ...) instead of a table");
   rt->add_option("--output-dir,-o", ro->output_dir, "Also write each decoded image here as <name>.png")
       ->check(CLI::ExistingDirectory);
