@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
@@ -41,10 +42,7 @@ struct ModelOptions {
 };
 
 void add_model_options(CLI::App* cmd, const std::shared_ptr<ModelOptions>& m) {
-  cmd->add_option("--autoencoder,-a", m->autoencoder,
-                  "Autoencoder: a name looked up in $LRF_MODELS, ./models, ../shared/models (e.g. taef2), a folder "
-                  "with *encoder* and *decoder* weights, or one weights file (KL-VAE)")
-      ->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &m->autoencoder, "to run");
   cmd->add_option("--encoder", m->encoder, "Replace the encoder's weights with this checkpoint (e.g. fine-tuned)");
   cmd->add_option("--decoder", m->decoder, "Replace the decoder's weights with this checkpoint (e.g. fine-tuned)");
   cmd->add_flag("--no-channels-last", m->contiguous,

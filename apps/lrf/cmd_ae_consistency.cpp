@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "lrf/core/log.h"
 #include "lrf/finetune/consistency.h"
@@ -48,7 +49,7 @@ lrf::cli::CommandRegistration reg(41, [](CLI::App& root) {
       "images are centre-cropped to multiples of 8");
   auto o = std::make_shared<ConsistencyOptions>();
   cmd->add_option("scene", o->scene, "Scene folder (COLMAP, LLFF or NeRF, with poses)")->required();
-  cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder (name, folder or weights file)")->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "whose latents are compared");
   cmd->add_option("--encoder", o->encoder, "Replace the encoder's weights (e.g. from `lrf finetune-encoder`)");
   cmd->add_option("--decoder", o->decoder, "Replace the decoder's weights (for the round trip)");
   cmd->add_option("--correspondences", o->correspondences,

@@ -3,6 +3,7 @@
 #include <fstream>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "preset_option.h"
 #include "refine_options.h"
@@ -31,7 +32,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "Few-shot protocol (the paper's Table 2 uses 3): every method trains on only K views, evenly spaced "
                   "over the non-test views; test views unchanged; initial points triangulated from the K (0: all)")
       ->capture_default_str();
-  cmd->add_option("--autoencoder", o->autoencoder, "Autoencoder of the latent field (name or path)")->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "of the latent rows");
   cmd->add_option("--encoder", o->encoder, "Fine-tuned encoder weights for the latent field (Stage I)");
   cmd->add_option("--decoder", o->decoder,
                   "Decoder weights to decode the latent field with, and to refine it through (Stage III)");

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "lrf/core/log.h"
 #include "lrf/demo/demo.h"
@@ -15,7 +16,7 @@ lrf::cli::CommandRegistration reg(1, [](CLI::App& root) {
               "ablation table, report.html and a short video");
   auto o = std::make_shared<lrf::DemoOptions>();
   demo->add_option("-o,--output", o->output, "Output folder")->capture_default_str();
-  demo->add_option("--autoencoder", o->autoencoder, "Autoencoder of the latent fields")->capture_default_str();
+  lrf::cli::add_autoencoder_option(demo, &o->autoencoder, "of the latent fields");
   demo->add_option("--views", o->views, "Views per synthetic scene")->capture_default_str();
   demo->add_option("--size", o->size, "Size of the synthetic views, WxH (latent fields are 8x smaller)")->capture_default_str();
   demo->add_option("--field-steps,--iters", o->field_iters, "Training steps per field (latent fields and RGB baselines)")

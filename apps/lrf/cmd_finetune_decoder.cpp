@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "distributed_flags.h"
 #include "lrf/finetune/decoder_finetune.h"
@@ -20,7 +21,7 @@ lrf::cli::CommandRegistration reg(46, [](CLI::App& root) {
   auto o = std::make_shared<lrf::DecoderFinetuneOptions>();
   cmd->add_option("--fields", o->fields, "Finished latent fields (`lrf train --space latent` folders)")->required();
   cmd->add_option("-o,--output", o->out, "Fine-tuned decoder to write (.safetensors)")->required();
-  cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder the fields were trained with")->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "the fields were trained with");
   cmd->add_option("--encoder", o->encoder, "Encoder checkpoint the fields were trained with (e.g. from Stage I)");
   cmd->add_option("--decoder", o->decoder, "Start from this decoder checkpoint instead of the autoencoder's own");
   cmd->add_option("--steps", o->steps, "Optimisation steps")->capture_default_str();

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "distributed_flags.h"
 #include "lrf/finetune/encoder_finetune.h"
@@ -40,8 +41,7 @@ lrf::cli::CommandRegistration reg(45, [](CLI::App& root) {
                   "factor), or both")
       ->required();
   cmd->add_option("-o,--output", o->out, "Fine-tuned encoder to write (.safetensors)")->required();
-  cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder (name, folder or weights file, as for `lrf ae`)")
-      ->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "whose encoder is fine-tuned");
   cmd->add_option("--encoder", o->encoder, "Start from this encoder checkpoint instead of the autoencoder's own");
   cmd->add_option("--correspondences", o->correspondence_files,
                   "Correspondence files from `lrf corr ... --crop8` at the resolution used, one per scene in order "

@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "preset_option.h"
 #include "refine_options.h"
@@ -35,7 +36,7 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
                   "every row")
       ->required();
   cmd->add_option("-o,--output", o->out, "Output folder")->required();
-  cmd->add_option("--autoencoder,-a", o->autoencoder, "Autoencoder (name, folder or weights file)")->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "of every stage");
   cmd->add_option("--max-side", o->max_side,
                   "Downscale each scene's images by the smallest integer factor bringing the longer side to at most "
                   "this many pixels (scenes given a :--downscale=N of their own use theirs)")

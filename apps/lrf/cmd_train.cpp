@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "autoencoder_option.h"
 #include "command.h"
 #include "init_points_options.h"
 #include "preset_option.h"
@@ -286,9 +287,7 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                   "fitted to the same latents by volume rendering: the paper's Latent-NeRF* baseline)")
       ->check(CLI::IsMember({"rgb", "latent", "latent-nerf"}))
       ->capture_default_str();
-  cmd->add_option("--autoencoder", o->autoencoder, "latent: autoencoder name (in $LRF_MODELS, ./models, "
-                                                   "../shared/models) or path")
-      ->capture_default_str();
+  lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "of a latent field (latent, latent-nerf)");
   cmd->add_option("--encoder", o->encoder, "latent: fine-tuned encoder weights (Stage I) replacing the stock encoder");
   cmd->add_option("--init", o->init, "latent: starting features: latents (sampled from the training latents at the "
                                      "SfM points' projections) or rgb (the paper code's RGB-in-first-channels)")
