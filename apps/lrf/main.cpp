@@ -88,6 +88,7 @@ bool runs_long(const CLI::App& app) {
 int main(int argc, char** argv) {
   using namespace lrf;
   keep_freed_memory();
+  apply_isa_cap_to_onednn();  // before oneDNN's first primitive reads its own cap
   set_command_line(argc, argv);
   CLI::App app{"lrf: latent radiance fields. 3D reconstruction and novel-view synthesis in the latent "
                "space of an image autoencoder (encoder alignment, latent Gaussian splatting, decoder "
@@ -108,7 +109,10 @@ int main(int argc, char** argv) {
                  "AVX512_BF16, the 3x3 convolutions run as Winograd's: F(3x3, 3x3) in inference and in Stage I / III "
                  "training's forward and input gradient ($LRF_WINOGRAD_TILE=2: F(2x2, 3x3)), F(2x2, 3x3) in "
                  "their weight gradient ($LRF_WINOGRAD=0: oneDNN's direct convolution instead); in inference the "
-                 "decoder's last one, to 3 outputs, runs in a kernel of its own ($LRF_FUSED_CONV=0: oneDNN's)");
+                 "decoder's last one, to 3 outputs, runs in a kernel of its own ($LRF_FUSED_CONV=0: oneDNN's). In fp32 on "
+                 "AVX2 or AVX-512F, the 3x3 convolutions run as Winograd's F(4x4, 3x3) in inference and in all three "
+                 "training passes ($LRF_WINOGRAD_F32_TILE=2: F(2x2, 3x3)). $LRF_CPU_ISA=avx512|avx2|baseline caps the "
+                 "vector instructions lrf and oneDNN use");
   app.add_flag("--quiet,-q", quiet, "Print only warnings and errors");
   app.add_flag("--log-json", log_json, "Print progress and log messages as JSON lines on stderr");
   app.require_subcommand(1);

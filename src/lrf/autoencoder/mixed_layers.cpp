@@ -6,6 +6,7 @@
 #include <ATen/ATen.h>
 #include <torch/autograd.h>
 
+#include "lrf/autoencoder/conv/winograd_f32.h"
 #include "lrf/autoencoder/conv/winograd_training.h"
 #include "lrf/core/cpu_features.h"
 #include "lrf/core/error.h"
@@ -127,19 +128,25 @@ at::Tensor conv2d_in_tiles(const at::Tensor& input, const at::Tensor& weight, co
   return out.contiguous(input.suggest_memory_format());
 }
 
+bool MixedConv2dImpl::is_same_3x3() const {
+  const auto& pad = *c10::get<torch::ExpandingArray<2>>(options.padding());
+  const auto& s = *options.stride();
+  const auto& d = *options.dilation();
+  const auto& k = *options.kernel_size();
+  return k[0] == 3 && k[1] == 3 && pad[0] == 1 && pad[1] == 1 && s[0] == 1 && s[1] == 1 && d[0] == 1 && d[1] == 1 &&
+         options.groups() == 1;
+}
+
 bool MixedConv2dImpl::runs_winograd(const at::Tensor& input) const {
   // Whatever the image's size: Winograd's three passes are the project's own kernels, so oneDNN's weight
   // gradient, which the tiles guard against on AMX, never runs for them (and a whole decoded view's tiles
   // cost the step three times its convolutions in slices and their zero-filled gradients).
-  const auto& pad = *c10::get<torch::ExpandingArray<2>>(options.padding());
-  const auto& s = *options.stride();
-  const auto& d = *options.dilation();
-  return pad[0] == 1 && pad[1] == 1 && s[0] == 1 && s[1] == 1 && d[0] == 1 && d[1] == 1 && options.groups() == 1 &&
-         winograd_trains(input, weight);
+  return is_same_3x3() && winograd_trains(input, weight);
 }
 
 at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
   if (runs_winograd(input)) return winograd_conv3x3_trained(input, weight, bias);
+  if (is_same_3x3() && winograd_f32_trains(input, weight)) return winograd_f32_conv3x3_trained(input, weight, bias);
   if (input.scalar_type() == at::kBFloat16 && !cpu_has_bf16()) {
     // Without native bf16, oneDNN has no bf16 convolution (AVX2) or emulates one, and libtorch's
     // reference kernels run the backward about 40x slower than fp32 (bench_autoencoder backward on a

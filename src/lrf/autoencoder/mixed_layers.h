@@ -10,7 +10,9 @@
 namespace lrf {
 
 // A 3x3 / 1x1 convolution (zero padding, as every autoencoder layer uses). In bf16, the 3x3 ones of
-// stride 1 with multiples of 64 channels run as Winograd's where the CPU has AVX512_BF16.
+// stride 1 with multiples of 64 channels run as Winograd's where the CPU has AVX512_BF16; in float32,
+// those whose channels are multiples of the vector lanes run as Winograd's where the CPU has AVX2 or
+// AVX-512F (winograd_f32.h), all three passes.
 class MixedConv2dImpl : public torch::nn::Conv2dImpl {
  public:
   explicit MixedConv2dImpl(const torch::nn::Conv2dOptions& options);
@@ -25,6 +27,8 @@ class MixedConv2dImpl : public torch::nn::Conv2dImpl {
   // A bf16 3x3 convolution that Winograd runs, forward and input gradient
   // (winograd_training.h): one that needs no tiles.
   bool runs_winograd(const at::Tensor& input) const;
+  // A 3x3 convolution of stride 1 and padding 1 (no dilation or groups): what Winograd's kernels compute.
+  bool is_same_3x3() const;
 };
 TORCH_MODULE(MixedConv2d);
 

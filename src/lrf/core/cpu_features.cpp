@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <cstdlib>
+#include <algorithm>
 #include <initializer_list>
 #include <string>
 
@@ -96,16 +97,62 @@ int winograd_tile() {
   fail("LRF_WINOGRAD_TILE must be 2 or 3, got '" + tile + "'");
 }
 
-bool cpu_has_avx2() {
+SimdLevel cpu_simd_level() {
 #if defined(__x86_64__) || defined(__i386__)
-  static const bool has = [] {
+  static const SimdLevel level = [] {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") != 0;
+    uint32_t eax = 0, ebx = 0, ecx = 0, edx = 0;
+    const uint64_t os = xcr0();
+    const bool os_avx = (os & 0x6) == 0x6, os_avx512 = (os & 0xE6) == 0xE6;
+    if (!os_avx || !__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) return SimdLevel::baseline;
+    if (__get_cpuid_count(7, 0, &eax, &ebx, &ecx, &edx) && (ebx & (1u << 16)) && os_avx512) return SimdLevel::avx512;
+    return SimdLevel::avx2;
   }();
-  return has;
+  return level;
 #else
-  return false;
+  return SimdLevel::baseline;
 #endif
+}
+
+const char* simd_level_name(SimdLevel level) {
+  switch (level) {
+    case SimdLevel::avx512: return "avx512";
+    case SimdLevel::avx2: return "avx2";
+    default: return "baseline";
+  }
+}
+
+namespace {
+
+// $LRF_CPU_ISA as a level; the CPU's own when unset.
+SimdLevel isa_cap() {
+  const char* env = std::getenv("LRF_CPU_ISA");
+  if (!env || !*env) return cpu_simd_level();
+  const std::string v = env;
+  if (v == "avx512") return SimdLevel::avx512;
+  if (v == "avx2") return SimdLevel::avx2;
+  if (v == "baseline") return SimdLevel::baseline;
+  fail("LRF_CPU_ISA must be avx512, avx2 or baseline, got '" + v + "'");
+}
+
+}  // namespace
+
+SimdLevel simd_level() { return std::min(cpu_simd_level(), isa_cap()); }
+
+void apply_isa_cap_to_onednn() {
+  const char* env = std::getenv("LRF_CPU_ISA");
+  if (!env || !*env || std::getenv("ONEDNN_MAX_CPU_ISA") || std::getenv("DNNL_MAX_CPU_ISA")) return;
+  const SimdLevel cap = isa_cap();
+  const char* onednn = cap == SimdLevel::avx512 ? (cpu_has_bf16() ? "ALL" : "AVX512_CORE_VNNI")
+                       : cap == SimdLevel::avx2 ? "AVX2"
+                                                : "SSE41";
+  ::setenv("ONEDNN_MAX_CPU_ISA", onednn, 0);
+}
+
+bool cpu_has_avx2() { return simd_level() >= SimdLevel::avx2; }
+
+bool winograd_f32_enabled() {
+  return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && simd_level() >= SimdLevel::avx2;
 }
 
 }  // namespace lrf

@@ -33,8 +33,26 @@ bool winograd_enabled();
 // were built with.
 int winograd_tile();
 
+// The widest float vectors the project's own kernels may use: AVX-512F (16 lanes, with the OS saving its
+// state), AVX2 with FMA (8 lanes), or neither (baseline x86-64). What the CPU has, capped by
+// $LRF_CPU_ISA (avx512, avx2 or baseline), so that one machine can run, test and time each path; lrf's
+// start-up passes the same cap to oneDNN (apply_isa_cap_to_onednn). Read on every call.
+enum class SimdLevel { baseline = 0, avx2 = 1, avx512 = 2 };
+SimdLevel simd_level();
+// The CPU's own, ignoring $LRF_CPU_ISA.
+SimdLevel cpu_simd_level();
+const char* simd_level_name(SimdLevel level);
+// Sets ONEDNN_MAX_CPU_ISA from $LRF_CPU_ISA (avx512: no cap, or AVX512_CORE_VNNI when $LRF_CPU_BF16=0;
+// avx2: AVX2; baseline: SSE41) unless the user set oneDNN's own variable. Must run before oneDNN's first
+// primitive, which reads it once.
+void apply_isa_cap_to_onednn();
+
 // Whether the CPU runs AVX2 (8-lane float vectors), for the loops compiled for it beside the baseline
-// ones: the rasterizer's kernels and Adam's update. Asked once; every x86-64 CPU of the last decade has it.
+// ones: the rasterizer's kernels and Adam's update: simd_level() >= avx2.
 bool cpu_has_avx2();
+
+// Whether float32 3x3 convolutions may run as the project's Winograd kernels (winograd_f32.h): a SIMD
+// level of AVX2 or more, fused_conv_enabled(), and $LRF_WINOGRAD is not 0. Read on every call.
+bool winograd_f32_enabled();
 
 }  // namespace lrf

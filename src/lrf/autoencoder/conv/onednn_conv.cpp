@@ -16,6 +16,7 @@
 #include "lrf/autoencoder/conv/conv_destination.h"
 #include "lrf/autoencoder/conv/narrow_conv.h"
 #include "lrf/autoencoder/conv/winograd_conv.h"
+#include "lrf/autoencoder/conv/winograd_f32.h"
 #include "lrf/core/error.h"
 
 namespace lrf {
@@ -51,6 +52,8 @@ struct FusedConv2d::Impl {
   std::map<Key, std::shared_ptr<const Prepared>> cache;
   // The bf16 path of a 3x3 convolution (stride 1, padding 1) whose channel counts it takes.
   std::unique_ptr<WinogradConv3x3> winograd;
+  // The float32 path of a 3x3 convolution (stride 1, padding 1) where the CPU has AVX2 or AVX-512F.
+  std::unique_ptr<WinogradF32Conv3x3> winograd_f32;
   // The bf16 path of a 3x3 convolution (stride 1, padding 1) to a few outputs (narrow_conv.h).
   std::unique_ptr<NarrowConv3x3> narrow;
   // Set once oneDNN has refused a bf16 convolution: it has them only on CPUs with AVX-512, so on others
@@ -117,6 +120,9 @@ FusedConv2d::FusedConv2d(const at::Tensor& weight, const at::Tensor& bias, int s
   if (same_3x3 && NarrowConv3x3::takes(impl_->outputs, impl_->inputs) && NarrowConv3x3::available()) {
     impl_->narrow = std::make_unique<NarrowConv3x3>(w, bias);
   }
+  if (same_3x3 && WinogradF32Conv3x3::runs(impl_->outputs, impl_->inputs)) {
+    impl_->winograd_f32 = std::make_unique<WinogradF32Conv3x3>(w, bias);
+  }
 }
 
 FusedConv2d::~FusedConv2d() = default;
@@ -144,6 +150,9 @@ at::Tensor FusedConv2d::forward(const at::Tensor& input, bool relu, const at::Te
   if (dtype != at::kBFloat16 && dtype != at::kFloat) fail("FusedConv2d: input must be bf16 or float32");
   if (input.size(2) + 2 * m.padding < m.kh || input.size(3) + 2 * m.padding < m.kw) {
     fail("FusedConv2d: input " + shape_of(input) + " is smaller than the kernel");
+  }
+  if (dtype == at::kFloat && m.winograd_f32 && WinogradF32Conv3x3::runs(m.outputs, m.inputs)) {
+    return m.winograd_f32->forward(input, relu, residual);
   }
   if (dtype == at::kBFloat16) {
     const Kernel kernel = bf16_kernel();
@@ -214,10 +223,14 @@ UpsampledConv2d::UpsampledConv2d(const at::Tensor& weight, const at::Tensor& bia
     fail("UpsampledConv2d: weight must be [O, I, 3, 3], got " + shape_of(weight));
   }
   outputs_ = weight.size(0);
+  winograd_inputs_ = weight.size(1);
   const at::Tensor b = bias.defined() ? bias.detach().to(at::kFloat).repeat({4}) : at::Tensor();
   phases_ = std::make_unique<FusedConv2d>(phase_weights(weight), b, 1, 1);
   if (WinogradConv3x3::takes(weight.size(0), weight.size(1)) && WinogradConv3x3::available()) {
     winograd_ = std::make_unique<WinogradConv3x3>(weight, bias, true);
+  }
+  if (WinogradF32Conv3x3::runs(weight.size(0), weight.size(1))) {
+    winograd_f32_ = std::make_unique<WinogradF32Conv3x3>(weight, bias, true);
   }
 }
 
@@ -226,6 +239,9 @@ UpsampledConv2d::~UpsampledConv2d() = default;
 at::Tensor UpsampledConv2d::forward(const at::Tensor& input, bool relu) const {
   if (input.scalar_type() == at::kBFloat16 && winograd_ && WinogradConv3x3::available()) {
     return winograd_->forward(input, relu);
+  }
+  if (input.scalar_type() == at::kFloat && winograd_f32_ && WinogradF32Conv3x3::runs(outputs_, winograd_inputs_)) {
+    return winograd_f32_->forward(input, relu);
   }
   const at::Tensor g = phases_->forward(input, relu);  // [N, 4·O, H + 1, W + 1]
   const int64_t n = g.size(0), h = g.size(2) - 1, w = g.size(3) - 1, o = outputs_;

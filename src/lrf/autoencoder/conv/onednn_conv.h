@@ -11,6 +11,7 @@
 namespace lrf {
 
 class WinogradConv3x3;
+class WinogradF32Conv3x3;
 
 class FusedConv2d {
  public:
@@ -23,7 +24,7 @@ class FusedConv2d {
 
   // input [N, I, H, W], bf16 or float32 (bf16: products in bf16, sums in float32, as at::conv2d's bf16
   // path; a 3x3 convolution with stride 1 and padding 1 runs as WinogradConv3x3 or, to 1 to 3 outputs, as
-  // NarrowConv3x3 where those take it).
+  // NarrowConv3x3 where those take it, and in float32 as WinogradF32Conv3x3 where the CPU has AVX2).
   // Returns [N, O, H', W'] channels-last in the input's dtype: conv + bias, then + `residual`
   // when it is defined, then the ReLU when `relu`. A defined `residual` must be channels-last with the
   // output's shape and dtype and must not overlap the input; the result is written into it (its
@@ -68,6 +69,10 @@ class UpsampledConv2d {
   // bf16 where the CPU has AVX512_BF16 and the channel counts fit: Winograd on the upsampled image,
   // 9/16 of the phases' multiply-adds and no interleaving pass.
   std::unique_ptr<WinogradConv3x3> winograd_;
+  // float32 where the CPU has AVX2 or AVX-512F: Winograd F(4x4) on the upsampled image read in place,
+  // 36 products per 16 outputs against the phases' 64.
+  std::unique_ptr<WinogradF32Conv3x3> winograd_f32_;
+  int64_t winograd_inputs_ = 0;
 };
 
 }  // namespace lrf
