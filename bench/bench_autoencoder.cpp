@@ -5,14 +5,17 @@
 // Cases (all TAEF2 at 504x376, fern's images_8 size cropped to multiples of 8, batch 1, real weights
 // from ../shared/models when present, else random weights of the same architecture):
 //   conv      one 64->64 3x3 convolution at 504x376, channels-last: what oneDNN reaches per precision
-//             (the ceiling for the networks, which are almost only such convolutions)
+//             (the ceiling for the networks, which are almost only such convolutions), and in float32
+//             oneDNN's direct convolution against the float32 Winograd kernel, alternated
 //   bounds    the least time of a decode, an encode, a Stage I and a Stage III step if every convolution
 //             ran at the rate of the fastest bf16 64->64 convolution measured here (FLOPs / that rate):
 //             inference's (Winograd where the CPU has AVX512_BF16) for decode and encode and for the
 //             training steps' forward and data gradients, the faster weight gradient's (Winograd's or
 //             the direct one's) for their weight gradients; then the floor under those: the products
 //             alone (Winograd's for the convolutions it takes, with the tiles chosen, direct for the
-//             rest), counted layer by layer, at the CPU's bf16 dot-product peak measured on registers
+//             rest), counted layer by layer, at the CPU's bf16 dot-product peak measured on registers;
+//             and the float32 floors per vector width (AVX2, AVX-512F): the products with the float32
+//             Winograd kernels and with direct convolutions, at that width's FMA peak on registers
 //   wgrad     the weight and bias gradient of one 64->64 3x3 convolution on 4 crops of 96x96 (a Stage I
 //             step's encoder level), bf16: oneDNN's direct one against Winograd's (where the CPU has
 //             AVX512_BF16), alternated
@@ -32,6 +35,10 @@
 //             decoder, backward into the decoder, Adam
 //   quality   round-trip PSNR on fern's test views 0, 8, 16 per precision, and their difference
 //   kl        the full-size KL-f8 VAE (random weights) encode and decode at 504x376
+//   paths     every instruction-set path this CPU has, side by side (bf16 where native, float32 Winograd
+//             on AVX-512F and on AVX2, float32 with oneDNN's direct convolutions: the path before it):
+//             decode, encode, the refinement's decoder share (whole view, coarse layers adapted), a
+//             Stage I and a Stage III step, each with its float32 floor
 // GFLOP/s count the convolutions' multiply-adds (x2) from the architecture (see taef2_*_flops).
 //
 // usage: bench_autoencoder [--threads N] [--reps R] [CASE ...]   (default: every case but kl; 2 threads)
@@ -55,6 +62,7 @@
 #include "lrf/autoencoder/conv/narrow_conv.h"
 #include "lrf/autoencoder/conv/onednn_conv.h"
 #include "lrf/autoencoder/conv/winograd_conv.h"
+#include "lrf/autoencoder/conv/winograd_f32.h"
 #include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/kl_vae.h"
@@ -68,6 +76,7 @@
 #include "lrf/finetune/encoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
 #include "lrf/scene/scene.h"
+#include "taef2_layers.h"
 
 namespace {
 
@@ -93,8 +102,8 @@ std::unique_ptr<lrf::Autoencoder> make_taef2() {
 // Multiply-adds of TAEF2's convolutions (the rest is a few percent of the time), counted from its
 // architecture (tiny_ae.h): 3x3 convs of 64 channels everywhere, a 1x1 64->256->64 pool branch in the
 // three blocks at 1/8 resolution, a 3-channel image and a 32-channel latent.
-constexpr double kConv64 = 64.0 * 64 * 9;  // one 3x3 64->64 convolution, per output pixel
-constexpr double kPool = 2.0 * 64 * 256;   // one pool branch, per latent cell
+using bench::kConv64;
+using bench::kPool;
 double taef2_encode_flops(int w, int h) {
   const double p = static_cast<double>(w) * h;
   const double full = (3.0 * 64 * 9 + 3 * kConv64) * p;                       // conv in, one block
@@ -183,6 +192,14 @@ void bench_conv(int reps) {
   ab("conv", reps, flops, [&](Precision p) {
     at::Tensor y = p == Precision::bf16 ? at::conv2d(x16, w16, {}, 1, 1) : at::conv2d(x, w, {}, 1, 1);
   });
+  if (lrf::WinogradF32Conv3x3::runs(64, 64)) {
+    // float32: oneDNN's direct convolution against the float32 Winograd kernel of this CPU's widest vectors
+    // (its rate counts the direct convolution's multiply-adds, so it can exceed the CPU's peak).
+    const lrf::WinogradF32Conv3x3 winograd(w, {});
+    alternate("conv-fp32", reps, flops, "direct", "winograd", [&](bool by_winograd) {
+      at::Tensor y = by_winograd ? winograd.forward(x, false) : at::conv2d(x, w, {}, 1, 1);
+    });
+  }
 }
 
 // oneDNN's bf16 weight and bias gradient of a 3x3 convolution (stride 1, padding 1): what training ran
@@ -258,69 +275,130 @@ double dot_product_peak_flops(int reps) {
 #endif
 }
 
-// TAEF2's convolutions one by one (tiny_ae.cpp), with the way each runs in bf16 where the CPU has
-// AVX512_BF16: inference takes Winograd for 3x3 stride-1 convolutions of multiples of 32 inputs and 64
-// outputs (upsampled ones on 2x2 tiles, 9 products per 4 outputs), training for those of 64 channels both
-// ways (an upsampled one as a plain convolution of the upsampled image), everything else runs direct.
-struct ConvLayer {
-  double macs;  // direct multiply-adds, at the output's resolution
-  enum { winograd, upsampled, direct } inference;
-  bool trained_by_winograd;
+// The products (multiply-adds) each workload still needs under an algorithm, counted layer by layer.
+struct Products {
+  double decode, encode, refine_decoder, stage1, stage3;
 };
 
-std::vector<ConvLayer> taef2_encoder_layers(int w, int h) {
-  const double p = static_cast<double>(w) * h;
-  std::vector<ConvLayer> layers = {{3.0 * 64 * 9 * p, ConvLayer::direct, false}};
-  auto block = [&](double pixels, bool pool) {
-    for (int i = 0; i < 3; ++i) layers.push_back({kConv64 * pixels, ConvLayer::winograd, true});
-    if (pool) layers.push_back({kPool * pixels, ConvLayer::direct, false});
-  };
-  block(p, false);
-  for (int level = 1; level <= 3; ++level) {
-    const double pixels = p / (1 << (2 * level));
-    layers.push_back({kConv64 * pixels, ConvLayer::direct, false});  // stride 2
-    for (int b = 0; b < 3; ++b) block(pixels, level == 3);
+Products workload_products(const bench::Algorithm& a) {
+  using namespace bench;
+  const auto encoder = taef2_encoder_layers(kWidth, kHeight), decoder = taef2_decoder_layers(kWidth, kHeight);
+  // The layer lists and the architecture's totals must count the same multiply-adds.
+  if (std::abs(direct_flops(encoder) / taef2_encode_flops(kWidth, kHeight) - 1) > 1e-9 ||
+      std::abs(direct_flops(decoder) / taef2_decode_flops(kWidth, kHeight) - 1) > 1e-9) {
+    lrf::fail("bench_autoencoder: the layer lists disagree with taef2_encode_flops / taef2_decode_flops");
   }
-  layers.push_back({64.0 * 32 * 9 * p / 64, ConvLayer::direct, false});
-  return layers;
+  Products p{};
+  p.decode = inference_products(decoder, a);
+  p.encode = inference_products(encoder, a);
+  // The refinement's decoder share, a whole view: the decoder's training forward and input gradient down
+  // to the latent, and the weight gradients of the layers at up to 2x the latent's resolution (the
+  // default --decoder-scale 2: the first conv, the 1/8 blocks, the first upsampling conv, the 1/4 blocks).
+  std::vector<ConvLayer> coarse(decoder.begin(), decoder.begin() + 1 + 3 * 4 + 1 + 3 * 3);
+  p.refine_decoder = training_products(decoder, a) + training_products(decoder, a) + weight_gradient_products(coarse, a);
+  // Stage I per crop: the trained encoder's forward, input gradient (not into the image) and weight
+  // gradient, the frozen decoder's forward and input gradient (down to the latent), the original
+  // encoder's forward (inference: no gradient recorded).
+  const auto e192 = taef2_encoder_layers(192, 192), d192 = taef2_decoder_layers(192, 192);
+  const double encoder_trained =
+      training_products(e192, a) + training_products(e192, a, false) + weight_gradient_products(e192, a);
+  p.stage1 = 4 * (encoder_trained + 2 * training_products(d192, a) + inference_products(e192, a));
+  // Stage III per crop: the trained decoder's forward, input gradient (not into the rendered latent) and
+  // weight gradient.
+  const auto d128 = taef2_decoder_layers(128, 128);
+  p.stage3 = 4 * (training_products(d128, a) + training_products(d128, a, false) + weight_gradient_products(d128, a));
+  return p;
 }
 
-std::vector<ConvLayer> taef2_decoder_layers(int w, int h) {
-  const double p = static_cast<double>(w) * h;
-  std::vector<ConvLayer> layers = {{32.0 * 64 * 9 * p / 64, ConvLayer::winograd, false}};
-  auto block = [&](double pixels, bool pool) {
-    for (int i = 0; i < 3; ++i) layers.push_back({kConv64 * pixels, ConvLayer::winograd, true});
-    if (pool) layers.push_back({kPool * pixels, ConvLayer::direct, false});
-  };
-  for (int level = 3; level >= 1; --level) {
-    for (int b = 0; b < 3; ++b) block(p / (1 << (2 * level)), level == 3);
-    layers.push_back({kConv64 * p / (1 << (2 * (level - 1))), ConvLayer::upsampled, true});
+// The CPU's float32 ceiling per instruction set: every thread runs FMAs on independent accumulators held
+// in registers (12 AVX2 or 24 AVX-512 vectors), with no memory access and nothing else to do.
+#if defined(__x86_64__)
+__attribute__((target("avx2,fma"))) float fma_loop_avx2(int64_t iterations) {
+  __m256 acc[12];
+  for (int i = 0; i < 12; ++i) acc[i] = _mm256_set1_ps(static_cast<float>(i));
+  __m256 a = _mm256_set1_ps(1.0f);
+  const __m256 b = _mm256_set1_ps(1e-7f);
+  for (int64_t it = 0; it < iterations; ++it) {
+#pragma GCC unroll 12
+    for (int i = 0; i < 12; ++i) acc[i] = _mm256_fmadd_ps(acc[i], a, b);
+    __asm__ volatile("" : "+x"(a));
   }
-  block(p, false);
-  layers.push_back({64.0 * 3 * 9 * p, ConvLayer::direct, false});
-  return layers;
+  __m256 sum = acc[0];
+  for (int i = 1; i < 12; ++i) sum = _mm256_add_ps(sum, acc[i]);
+  alignas(32) float lanes[8];
+  _mm256_store_ps(lanes, sum);
+  return lanes[0];
 }
 
-// Products (bf16 multiply-adds) each pass needs, for Winograd tiles taking `tile_share` of the direct
-// products (25/81 for 3x3 tiles, 16/36 for 2x2).
-double inference_products(const std::vector<ConvLayer>& layers, double tile_share) {
-  double sum = 0;
-  for (const auto& l : layers) {
-    sum += l.macs * (l.inference == ConvLayer::winograd ? tile_share : l.inference == ConvLayer::upsampled ? 0.25 : 1);
+__attribute__((target("avx512f"))) float fma_loop_avx512(int64_t iterations) {
+  __m512 acc[24];
+  for (int i = 0; i < 24; ++i) acc[i] = _mm512_set1_ps(static_cast<float>(i));
+  __m512 a = _mm512_set1_ps(1.0f);
+  const __m512 b = _mm512_set1_ps(1e-7f);
+  for (int64_t it = 0; it < iterations; ++it) {
+#pragma GCC unroll 24
+    for (int i = 0; i < 24; ++i) acc[i] = _mm512_fmadd_ps(acc[i], a, b);
+    __asm__ volatile("" : "+v"(a));
   }
-  return sum;
+  __m512 sum = acc[0];
+  for (int i = 1; i < 24; ++i) sum = _mm512_add_ps(sum, acc[i]);
+  alignas(64) float lanes[16];
+  _mm512_store_ps(lanes, sum);
+  return lanes[0];
 }
-// The training forward, or the input gradient (the same convolutions transposed; without the first
-// layer's when its input takes no gradient).
-double training_products(const std::vector<ConvLayer>& layers, double tile_share, bool first_layer = true) {
-  double sum = 0;
-  for (size_t i = first_layer ? 0 : 1; i < layers.size(); ++i) {
-    sum += layers[i].macs * (layers[i].trained_by_winograd ? tile_share : 1);
+#endif
+
+// FLOP/s of float32 FMAs at `level` on every thread at once (2 flops each), best of `reps`.
+double fma_peak_flops(lrf::SimdLevel level, int reps) {
+#if defined(__x86_64__)
+  if (lrf::cpu_simd_level() < level || level == lrf::SimdLevel::baseline) return 0;
+  const int64_t threads = at::get_num_threads(), iterations = 20'000'000;
+  const bool wide = level == lrf::SimdLevel::avx512;
+  double best = 1e30;
+  for (int r = 0; r < reps; ++r) {
+    const double t0 = now();
+    std::atomic<float> sink{0};
+    at::parallel_for(0, threads, 1, [&](int64_t begin, int64_t end) {
+      for (int64_t t = begin; t < end; ++t) sink = sink + (wide ? fma_loop_avx512(iterations) : fma_loop_avx2(iterations));
+    });
+    best = std::min(best, now() - t0);
   }
-  return sum;
+  return static_cast<double>(threads) * iterations * (wide ? 24 * 16 : 12 * 8) * 2 / best;
+#else
+  (void)level, (void)reps;
+  return 0;
+#endif
 }
-double weight_gradient_products(const std::vector<ConvLayer>& layers) {
-  return training_products(layers, 16.0 / 36);  // F(2x2, 3x3)'s transposed transforms
+
+// The float32 floors per instruction set: the products each workload needs with the float32 Winograd
+// kernels of that width (F(4x4): a quarter of the direct multiply-adds for the layers they take) and
+// with direct convolutions only, at that width's FMA peak.
+void bench_fp32_floors(int reps) {
+  for (lrf::SimdLevel level : {lrf::SimdLevel::avx2, lrf::SimdLevel::avx512}) {
+    const double peak = fma_peak_flops(level, reps);
+    if (peak <= 0) {
+      std::printf("fp32 floor (%s): this CPU has no %s; skipped\n", lrf::simd_level_name(level),
+                  lrf::simd_level_name(level));
+      continue;
+    }
+    const int lanes = level == lrf::SimdLevel::avx512 ? 16 : 8;
+    const Products winograd = workload_products(bench::Algorithm{false, lanes, 0.25});
+    const Products direct = workload_products(bench::Algorithm{false, 0, 1});
+    std::printf("fp32 floor (%s): FMA peak %.0f GFLOP/s here (all threads, on registers); products alone, "
+                "Winograd F(4x4) / direct:\n",
+                lrf::simd_level_name(level), peak * 1e-9);
+    auto row = [&](const char* what, double w, double d) {
+      std::printf("fp32 floor (%s): %-40s %7.1f / %7.1f GFLOP  >= %7.1f / %7.1f ms\n", lrf::simd_level_name(level),
+                  what, 2 * w * 1e-9, 2 * d * 1e-9, 2e3 * w / peak, 2e3 * d / peak);
+    };
+    row("decode 504x376", winograd.decode, direct.decode);
+    row("encode 504x376", winograd.encode, direct.encode);
+    row("refinement's decoder share (504x376)", winograd.refine_decoder, direct.refine_decoder);
+    row("Stage I step (4 crops of 192x192)", winograd.stage1, direct.stage1);
+    row("Stage III step (4 crops of 128x128)", winograd.stage3, direct.stage3);
+  }
+  std::printf("\n");
+  std::fflush(stdout);
 }
 
 // The least time each measured workload can take on this CPU if every convolution ran as fast as the
@@ -403,35 +481,11 @@ void bench_bounds(int reps) {
     std::printf("floor: %-44s %7.1f GFLOP  >= %7.1f ms  <= %6.2f /s   (%s)\n", what, 2 * products * 1e-9,
                 1e3 * seconds, 1 / seconds, target);
   };
-  const auto encoder = taef2_encoder_layers(kWidth, kHeight), decoder = taef2_decoder_layers(kWidth, kHeight);
-  // The layer lists and the architecture's totals above must count the same multiply-adds.
-  auto direct_flops = [](const std::vector<ConvLayer>& layers) {
-    double sum = 0;
-    for (const auto& l : layers) sum += 2 * l.macs;
-    return sum;
-  };
-  if (std::abs(direct_flops(encoder) / encode - 1) > 1e-9 ||
-      std::abs(direct_flops(decoder) / taef2_decode_flops(kWidth, kHeight) - 1) > 1e-9) {
-    lrf::fail("bench_autoencoder: the layer lists disagree with taef2_encode_flops / taef2_decode_flops");
-  }
-  floor("decode 504x376", inference_products(decoder, share), "issue 17: >= 20 /s");
-  floor("encode 504x376", inference_products(encoder, share), "issue 17: >= 10 /s");
-  // Stage I per crop: the trained encoder's forward, input gradient (not into the image) and weight
-  // gradient, the frozen decoder's forward and input gradient (down to the latent), the original
-  // encoder's forward (inference: no gradient recorded).
-  const auto layers_e192 = taef2_encoder_layers(192, 192), layers_d192 = taef2_decoder_layers(192, 192);
-  const double encoder_trained = training_products(layers_e192, share) +
-                                 training_products(layers_e192, share, false) + weight_gradient_products(layers_e192);
-  floor("Stage I step (4 crops of 192x192)",
-        4 * (encoder_trained + 2 * training_products(layers_d192, share) + inference_products(layers_e192, share)),
-        "issue 17: <= 0.3 s");
-  // Stage III per crop: the trained decoder's forward, input gradient (not into the rendered latent) and
-  // weight gradient.
-  const auto layers_d128 = taef2_decoder_layers(128, 128);
-  floor("Stage III step (4 crops of 128x128)",
-        4 * (training_products(layers_d128, share) + training_products(layers_d128, share, false) +
-             weight_gradient_products(layers_d128)),
-        "issue 17: <= 0.3 s");
+  const Products products = workload_products(bench::Algorithm{true, 0, share});
+  floor("decode 504x376", products.decode, "issue 17: >= 20 /s");
+  floor("encode 504x376", products.encode, "issue 17: >= 10 /s");
+  floor("Stage I step (4 crops of 192x192)", products.stage1, "issue 17: <= 0.3 s");
+  floor("Stage III step (4 crops of 128x128)", products.stage3, "issue 17: <= 0.3 s");
   std::printf("\n");
   std::fflush(stdout);
 }
@@ -657,6 +711,161 @@ void bench_kl(int reps) {
   });
 }
 
+// One instruction-set path: the environment that selects it and the precision it computes in.
+struct Path {
+  std::string name;
+  std::vector<std::pair<const char*, const char*>> env;  // set while the path runs ("" unsets)
+  Precision precision;
+};
+
+// The paths this CPU can run: bf16 where it has native bf16, float32 Winograd on AVX-512F and on AVX2
+// where it has them, and float32 with oneDNN's direct convolutions (what every CPU without native bf16
+// ran before the float32 kernels).
+std::vector<Path> cpu_paths() {
+  std::vector<Path> paths;
+  if (lrf::cpu_has_avx512_bf16()) paths.push_back({"bf16", {{"LRF_CPU_ISA", ""}, {"LRF_WINOGRAD", ""}}, Precision::bf16});
+  if (lrf::cpu_simd_level() >= lrf::SimdLevel::avx512)
+    paths.push_back({"avx512-fp32", {{"LRF_CPU_ISA", "avx512"}, {"LRF_WINOGRAD", ""}}, Precision::fp32});
+  if (lrf::cpu_simd_level() >= lrf::SimdLevel::avx2)
+    paths.push_back({"avx2-fp32", {{"LRF_CPU_ISA", "avx2"}, {"LRF_WINOGRAD", ""}}, Precision::fp32});
+  paths.push_back({"direct-fp32", {{"LRF_CPU_ISA", ""}, {"LRF_WINOGRAD", "0"}}, Precision::fp32});
+  return paths;
+}
+
+void enter(const Path& path) {
+  for (const auto& [name, value] : path.env) {
+    if (*value) {
+      setenv(name, value, 1);
+    } else {
+      unsetenv(name);
+    }
+  }
+}
+
+// The workloads of one path, on models built while the path's environment is set (the fused inference
+// layers choose their kernels when built).
+struct PathWorkloads {
+  std::unique_ptr<lrf::Autoencoder> ae, stage1_model, stage1_original;
+  std::unique_ptr<lrf::ParamAdam> stage1_adam, stage3_adam, refine_adam;
+  std::vector<std::function<void()>> runs;  // decode, encode, refinement's decoder share, Stage I, Stage III
+};
+
+const char* const kWorkloads[] = {"decode 504x376", "encode 504x376", "refinement's decoder share 504x376",
+                                  "Stage I step (4 x 192x192)", "Stage III step (4 x 128x128)"};
+
+// Compares the paths this CPU has on TAEF2's workloads, alternating their order at each repetition, and
+// prints each workload's median time per path with its float32 floor (products at the FMA peak of the
+// path's width; bounds prints how those are counted).
+void bench_paths(int reps) {
+  const std::vector<Path> paths = cpu_paths();
+  lrf::SceneOptions so;
+  so.images_dir = "images_8";
+  std::vector<lrf::PairScene> scenes;
+  scenes.push_back(lrf::load_pair_scene(shared_dir() + "/scenes/llff-fern", so, 640, "", 15));
+  lrf::EncoderFinetuneOptions o;
+  o.batch.pairs = 2;
+  o.batch.crop = 192;
+  const lrf::PairBatch batch = lrf::sample_pair_batch(scenes, o.batch, 0, 0);
+  const at::Tensor x = fern_image(0);
+  const at::Tensor upstream = torch::randn({1, 3, kHeight, kWidth});
+  std::vector<PathWorkloads> work(paths.size());
+  for (size_t k = 0; k < paths.size(); ++k) {
+    enter(paths[k]);
+    PathWorkloads& w = work[k];
+    w.ae = make_taef2();
+    w.ae->set_precision(paths[k].precision);
+    at::Tensor z;
+    {
+      torch::NoGradGuard no_grad;
+      z = w.ae->encode(x);
+    }
+    w.stage1_model = make_taef2();
+    w.stage1_original = make_taef2();
+    for (auto* m : {w.stage1_model.get(), w.stage1_original.get()}) m->set_precision(paths[k].precision);
+    w.stage1_original->set_encoder_trainable(false);
+    w.stage1_original->set_decoder_trainable(false);
+    w.stage1_model->set_decoder_trainable(false);
+    w.stage1_adam = std::make_unique<lrf::ParamAdam>(w.stage1_model->encoder_parameters(), lrf::AdamOptions{1e-5});
+    auto* ae = w.ae.get();
+    w.runs.push_back([ae, z] {
+      torch::NoGradGuard no_grad;
+      ae->decode(z);
+    });
+    w.runs.push_back([ae, x] {
+      torch::NoGradGuard no_grad;
+      ae->encode(x);
+    });
+    w.runs.push_back([ae, z, upstream] {
+      ae->set_decoder_trainable(true, 2);
+      at::Tensor zz = z.detach().requires_grad_(true);
+      ae->decode_unclamped(zz).backward(upstream);
+      for (auto& p : ae->decoder_parameters()) p.mutable_grad() = at::Tensor();
+    });
+    auto* model = w.stage1_model.get();
+    auto* original = w.stage1_original.get();
+    auto* adam = w.stage1_adam.get();
+    w.runs.push_back([model, original, adam, &batch, &o] {
+      adam->zero_grad();
+      lrf::stage1_losses(*model, *original, batch, o).total.backward();
+      adam->step();
+    });
+    // Stage III: crops of the encoded view stand in for rendered latents (same sizes and cost).
+    w.stage3_adam = std::make_unique<lrf::ParamAdam>(ae->decoder_parameters(), lrf::AdamOptions{1e-5});
+    auto* adam3 = w.stage3_adam.get();
+    const at::Tensor zc = z.narrow(2, 4, 16).narrow(3, 4, 16).repeat({4, 1, 1, 1});
+    const at::Tensor xc = x.narrow(2, 32, 128).narrow(3, 32, 128).repeat({4, 1, 1, 1});
+    w.runs.push_back([ae, adam3, zc, xc] {
+      ae->set_decoder_trainable(true);
+      adam3->zero_grad();
+      (ae->decode(zc) - xc).abs().mean().backward();
+      adam3->step();
+    });
+  }
+  const size_t n_work = std::size(kWorkloads);
+  std::vector<std::vector<std::vector<double>>> times(paths.size(), std::vector<std::vector<double>>(n_work));
+  for (int r = -1; r < reps; ++r) {  // round -1 warms up (oneDNN builds its kernels on first use)
+    for (size_t j = 0; j < paths.size(); ++j) {
+      const size_t k = (j + static_cast<size_t>(std::max(r, 0))) % paths.size();
+      enter(paths[k]);
+      for (size_t i = 0; i < n_work; ++i) {
+        const double t0 = now();
+        work[k].runs[i]();
+        if (r >= 0) times[k][i].push_back(now() - t0);
+      }
+    }
+  }
+  std::printf("paths: median of %d repetitions, ms (the paths alternate their order); floor: the products alone at "
+              "the FMA peak (fp32 paths)\n", reps);
+  std::printf("%-38s", "workload");
+  for (const auto& p : paths) std::printf(" %13s %8s", p.name.c_str(), "floor");
+  std::printf("\n");
+  std::vector<double> peaks;
+  std::vector<Products> products;
+  for (const auto& p : paths) {
+    const bool avx512 = p.name == "avx512-fp32", avx2 = p.name == "avx2-fp32";
+    peaks.push_back(avx512 ? fma_peak_flops(lrf::SimdLevel::avx512, 2)
+                    : (avx2 || p.name == "direct-fp32") ? fma_peak_flops(lrf::SimdLevel::avx2, 2)
+                                                        : 0);
+    products.push_back(workload_products(bench::Algorithm{false, avx512 ? 16 : avx2 ? 8 : 0, avx512 || avx2 ? 0.25 : 1}));
+  }
+  for (size_t i = 0; i < n_work; ++i) {
+    std::printf("%-38s", kWorkloads[i]);
+    for (size_t k = 0; k < paths.size(); ++k) {
+      const Products& pr = products[k];
+      const double macs = i == 0 ? pr.decode : i == 1 ? pr.encode : i == 2 ? pr.refine_decoder : i == 3 ? pr.stage1 : pr.stage3;
+      std::printf(" %13.1f", 1e3 * median(times[k][i]));
+      if (peaks[k] > 0) {
+        std::printf(" %8.1f", 2e3 * macs / peaks[k]);
+      } else {
+        std::printf(" %8s", "-");
+      }
+    }
+    std::printf("\n");
+  }
+  std::printf("\n");
+  std::fflush(stdout);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -673,7 +882,7 @@ int main(int argc, char** argv) {
     }
   }
   const std::set<std::string> known = {"conv",     "bounds", "wgrad",  "tiles",   "encode", "decode",
-                                       "fused",    "backward", "stage1", "stage3", "quality", "kl", "narrow"};
+                                       "fused",    "backward", "stage1", "stage3", "quality", "kl", "narrow", "paths"};
   for (const auto& c : cases) {
     if (!known.count(c)) {
       std::string names;
@@ -691,7 +900,10 @@ int main(int argc, char** argv) {
   std::printf("CPU native bf16 (AVX512_BF16 or AMX-BF16): %s\n\n", lrf::cpu_reports_bf16() ? "yes" : "no");
   try {
     if (cases.count("conv")) bench_conv(reps);
-    if (cases.count("bounds")) bench_bounds(reps);
+    if (cases.count("bounds")) {
+      bench_bounds(reps);
+      bench_fp32_floors(reps);
+    }
     if (cases.count("wgrad")) bench_weight_gradient(reps);
     if (cases.count("tiles")) bench_tiles(reps);
     if (cases.count("narrow")) bench_narrow(reps);
@@ -703,6 +915,7 @@ int main(int argc, char** argv) {
     if (cases.count("stage1")) bench_stage1(reps);
     if (cases.count("stage3")) bench_stage3(reps);
     if (cases.count("kl")) bench_kl(std::min(reps, 3));
+    if (cases.count("paths")) bench_paths(reps);
   } catch (const lrf::Error& e) {
     std::fprintf(stderr, "bench_autoencoder: %s\n", e.what());
     return 1;
