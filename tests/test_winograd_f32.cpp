@@ -115,6 +115,16 @@ TEST(WinogradF32, GradientsMatchFloat64OnEveryWidthAndTile) {
       expect_close(w.grad(), wd.grad(), what + ", weight gradient");
       expect_close(b.grad(), bd.grad(), what + ", bias gradient");
       EXPECT_EQ(w.grad().scalar_type(), at::kFloat);
+      // With a residual and the ReLU applied as the outputs are stored, and the ReLU's mask in the backward.
+      const at::Tensor r = c.x.narrow(1, 0, 16).repeat({1, 2, 1, 1}).clone().requires_grad_(true);
+      const at::Tensor x2 = c.x.clone().requires_grad_(true), w2 = c.w.clone().requires_grad_(true);
+      lrf::winograd_f32_conv3x3_trained(x2, w2, {}, r, true).backward(up);
+      const at::Tensor rd = r.detach().to(at::kDouble).requires_grad_(true);
+      const at::Tensor xd2 = c.x.to(at::kDouble).requires_grad_(true), wd2 = c.w.to(at::kDouble).requires_grad_(true);
+      (at::conv2d(xd2, wd2, {}, 1, 1) + rd).relu().backward(up.to(at::kDouble));
+      expect_close(x2.grad(), xd2.grad(), what + ", residual and ReLU: input gradient");
+      expect_close(w2.grad(), wd2.grad(), what + ", residual and ReLU: weight gradient");
+      expect_close(r.grad(), rd.grad(), what + ", residual and ReLU: residual gradient");
       // The weight gradient alone, as the training layer calls it, is deterministic at a thread count.
       const lrf::ConvParameterGradients once = lrf::winograd_f32_weight_gradient(c.x, up, std::stoi(tile));
       EXPECT_TRUE(torch::equal(once.weight, lrf::winograd_f32_weight_gradient(c.x, up, std::stoi(tile)).weight));

@@ -174,6 +174,9 @@ at::Tensor MixedConv2dImpl::forward(const at::Tensor& input) {
 
 at::Tensor MixedConv2dImpl::forward_with(const at::Tensor& input, const at::Tensor& residual, bool relu) {
   if (runs_winograd(input)) return winograd_conv3x3_trained(input, weight, bias, residual, relu);
+  if (is_same_3x3() && winograd_f32_trains(input, weight)) {
+    return winograd_f32_conv3x3_trained(input, weight, bias, residual, relu);
+  }
   at::Tensor y = forward(input);
   if (residual.defined()) y = y + residual;
   // In place: a convolution's backward does not need its output, nor an add's.

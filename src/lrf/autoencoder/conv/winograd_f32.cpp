@@ -1,6 +1,7 @@
 #include "lrf/autoencoder/conv/winograd_f32.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <cstdlib>
 #include <string>
 
@@ -185,22 +186,46 @@ namespace {
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
+// The gradient through a ReLU: g where the ReLU's output y is positive, else 0, on the float32 bit patterns
+// (a positive float is a positive int32), branch-free so that the loop vectorises. Channels-last, same shape.
+at::Tensor relu_masked(const at::Tensor& g, const at::Tensor& y) {
+  at::Tensor out = at::empty_like(g, at::MemoryFormat::ChannelsLast);
+  const auto* gp = reinterpret_cast<const int32_t*>(g.data_ptr());
+  const auto* yp = reinterpret_cast<const int32_t*>(y.data_ptr());
+  auto* op = reinterpret_cast<int32_t*>(out.data_ptr());
+  at::parallel_for(0, g.numel(), 1 << 16, [=](int64_t begin, int64_t end) {
+    const int32_t* __restrict from = gp + begin;
+    const int32_t* __restrict sign = yp + begin;
+    int32_t* __restrict to = op + begin;
+    for (int64_t k = 0; k < end - begin; ++k) to[k] = from[k] & -static_cast<int32_t>(sign[k] > 0);
+  });
+  return out;
+}
+
 class WinogradF32Function : public torch::autograd::Function<WinogradF32Function> {
  public:
-  // `bias`: a tensor of no elements for none (autograd::Function takes no undefined inputs).
+  // `bias`, `residual`: tensors of no elements for none (autograd::Function takes no undefined inputs).
   static at::Tensor forward(AutogradContext* ctx, const at::Tensor& input, const at::Tensor& weight,
-                            const at::Tensor& bias) {
+                            const at::Tensor& bias, const at::Tensor& residual, bool relu) {
     const at::Tensor x = input.contiguous(at::MemoryFormat::ChannelsLast);
-    ctx->save_for_backward({x, weight});
+    // The convolution adds itself into a copy of the residual, which becomes the output: one pass for the
+    // convolution, its residual and its ReLU.
+    const at::Tensor into = residual.numel() > 0 ? residual.to(at::kFloat).clone(at::MemoryFormat::ChannelsLast)
+                                                 : at::Tensor();
+    const at::Tensor y = WinogradF32Conv3x3(weight, bias.numel() > 0 ? bias : at::Tensor()).forward(x, relu, into);
     ctx->saved_data["has_bias"] = bias.numel() > 0;
-    return WinogradF32Conv3x3(weight, bias.numel() > 0 ? bias : at::Tensor()).forward(x, false);
+    ctx->saved_data["relu"] = relu;
+    // The output is kept only for the ReLU's mask.
+    ctx->save_for_backward({x, weight, relu ? y : at::Tensor()});
+    return y;
   }
 
   static variable_list backward(AutogradContext* ctx, variable_list grad_outputs) {
     const auto saved = ctx->get_saved_variables();
     const at::Tensor &x = saved[0], &weight = saved[1];
-    const at::Tensor g = grad_outputs[0].to(at::kFloat).contiguous(at::MemoryFormat::ChannelsLast);
-    at::Tensor grad_input, grad_weight, grad_bias;
+    at::Tensor g = grad_outputs[0].to(at::kFloat).contiguous(at::MemoryFormat::ChannelsLast);
+    if (ctx->saved_data["relu"].toBool()) g = relu_masked(g, saved[2]);
+    at::Tensor grad_input, grad_weight, grad_bias, grad_residual;
     if (ctx->needs_input_grad(0)) {
       // The input's gradient: the output's gradient convolved with the kernels transposed ([I, O]) and flipped.
       const at::Tensor flipped = weight.detach().permute({1, 0, 2, 3}).flip({2, 3});
@@ -211,16 +236,21 @@ class WinogradF32Function : public torch::autograd::Function<WinogradF32Function
       if (ctx->needs_input_grad(1)) grad_weight = p.weight.contiguous(weight.suggest_memory_format());
       if (ctx->needs_input_grad(2) && ctx->saved_data["has_bias"].toBool()) grad_bias = p.bias;
     }
-    return {grad_input, grad_weight, grad_bias};
+    // The placeholder of a missing residual takes no gradient, so this asks for a real one only.
+    if (ctx->needs_input_grad(3)) grad_residual = g;
+    return {grad_input, grad_weight, grad_bias, grad_residual, at::Tensor()};
   }
 };
 
 }  // namespace
 
-at::Tensor winograd_f32_conv3x3_trained(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias) {
+at::Tensor winograd_f32_conv3x3_trained(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias,
+                                        const at::Tensor& residual, bool relu) {
   if (!winograd_f32_trains(input, weight)) fail("winograd_f32_conv3x3_trained: this convolution is not run here");
+  // A residual of the wrong shape is refused by the convolution's own check (conv_destination.h).
   const at::Tensor b = bias.defined() ? bias : at::empty({0}, weight.options());
-  return WinogradF32Function::apply(input, weight, b);
+  const at::Tensor r = residual.defined() ? residual : at::empty({0}, input.options());
+  return WinogradF32Function::apply(input, weight, b, r, relu);
 }
 
 }  // namespace lrf

@@ -57,9 +57,13 @@ ConvParameterGradients winograd_f32_weight_gradient(const at::Tensor& input, con
 // the kernels take both ways, on a CPU that runs them.
 bool winograd_f32_trains(const at::Tensor& input, const at::Tensor& weight);
 
-// conv2d(input, weight, bias, stride 1, padding 1) with autograd, all three passes by Winograd: the
-// forward, the input gradient (the output gradient convolved with the transposed, flipped kernels) and the
-// weight and bias gradients. Returns float32 channels-last.
-at::Tensor winograd_f32_conv3x3_trained(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias);
+// relu?(conv2d(input, weight, bias, stride 1, padding 1) + residual) with autograd, all three passes by
+// Winograd: the forward, the input gradient (the output gradient convolved with the transposed, flipped
+// kernels) and the weight and bias gradients. The residual and the ReLU are applied as the convolution
+// stores its outputs, and the ReLU's mask as its backward reads the gradient (libtorch would spend one
+// pass over the activation on each). `residual` undefined or of the output's shape (not modified).
+// Returns float32 channels-last.
+at::Tensor winograd_f32_conv3x3_trained(const at::Tensor& input, const at::Tensor& weight, const at::Tensor& bias,
+                                        const at::Tensor& residual = {}, bool relu = false);
 
 }  // namespace lrf
