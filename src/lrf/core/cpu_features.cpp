@@ -151,6 +151,15 @@ void apply_isa_cap_to_onednn() {
 
 bool cpu_has_avx2() { return simd_level() >= SimdLevel::avx2; }
 
+int winograd_f32_tile() {
+  const char* v = std::getenv("LRF_WINOGRAD_F32_TILE");
+  if (!v || !*v) return 4;
+  const std::string tile = v;
+  if (tile == "2") return 2;
+  if (tile == "4") return 4;
+  fail("LRF_WINOGRAD_F32_TILE must be 2 or 4, got '" + tile + "'");
+}
+
 bool winograd_f32_enabled() {
   return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && simd_level() >= SimdLevel::avx2;
 }

@@ -55,4 +55,8 @@ bool cpu_has_avx2();
 // level of AVX2 or more, fused_conv_enabled(), and $LRF_WINOGRAD is not 0. Read on every call.
 bool winograd_f32_enabled();
 
+// The output tile side of the float32 Winograd kernels: 4, F(4x4, 3x3), unless $LRF_WINOGRAD_F32_TILE is 2,
+// F(2x2, 3x3) (kept to compare against). Read on every call.
+int winograd_f32_tile();
+
 }  // namespace lrf

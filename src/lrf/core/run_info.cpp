@@ -55,7 +55,14 @@ nlohmann::json version_info() {
           // differ from the direct convolution's).
           {"autoencoder_winograd", resolve_precision(default_precision()) == Precision::bf16 && winograd_enabled()},
           // Its output tiles (2 or 3; they round differently).
-          {"autoencoder_winograd_tile", winograd_tile()}};
+          {"autoencoder_winograd_tile", winograd_tile()},
+          // The widest vectors lrf's own kernels used ($LRF_CPU_ISA caps them), and whether float32 ran its
+          // 3x3 convolutions as Winograd's F(4x4) or F(2x2) (sums in another order than the direct
+          // convolution's: outputs differ by float32 rounding, ~1e-6 of the values).
+          {"simd_level", simd_level_name(simd_level())},
+          {"autoencoder_winograd_f32",
+           resolve_precision(default_precision()) == Precision::fp32 && winograd_f32_enabled()},
+          {"autoencoder_winograd_f32_tile", winograd_f32_tile()}};
   for (const auto& [key, fact] : version_facts()) info[key] = fact();
   return info;
 }

@@ -61,14 +61,7 @@ bool WinogradF32Conv3x3::runs(int64_t outputs, int64_t inputs) {
   return k && outputs > 0 && inputs > 0 && outputs % k->lanes == 0 && inputs % k->lanes == 0;
 }
 
-int WinogradF32Conv3x3::chosen_tile() {
-  const char* v = std::getenv("LRF_WINOGRAD_F32_TILE");
-  if (!v || !*v) return 4;
-  const std::string tile = v;
-  if (tile == "2") return 2;
-  if (tile == "4") return 4;
-  fail("LRF_WINOGRAD_F32_TILE must be 2 or 4, got '" + tile + "'");
-}
+int WinogradF32Conv3x3::chosen_tile() { return winograd_f32_tile(); }
 
 WinogradF32Conv3x3::WinogradF32Conv3x3(const at::Tensor& weight, const at::Tensor& bias, bool upsampled_input,
                                        int tile)
