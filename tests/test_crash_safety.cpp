@@ -2,6 +2,7 @@
 // dies with its process), and `lrf train` killed with SIGKILL mid-way then resumed with --resume ends
 // with the same field and metrics as an uninterrupted run of the same seed.
 #include <chrono>
+#include <cstdio>
 #include <csignal>
 #include <filesystem>
 #include <string>
@@ -226,4 +227,46 @@ TEST(CrashSafety, KilledFeatureFieldResumesToTheUninterruptedResult) {
   }
   EXPECT_EQ(lrf::read_json_file(straight + "/config.json")["result"]["final_loss"],
             lrf::read_json_file(killed + "/config.json")["result"]["final_loss"]);
+}
+
+// A disk that fills while training writes its checkpoint: simulated with a file-size limit (writes past it
+// fail with EFBIG, SIGXFSZ ignored, as a full disk fails them with ENOSPC). The run stops with an error
+// naming the checkpoint, exit 1, no temporary left behind; the previous checkpoint survives, and a retry
+// with room resumes from it. Temporaries left by a killed write are removed by the next run on the folder.
+TEST(CrashSafety, FullDiskWhileCheckpointingIsAnErrorAndLeavesNothingBehind) {
+  const std::string scene = lrf::test::synthetic_scene({8, "64x48", 3, 800});
+  lrf::test::TempDir dir("disk_full");
+  const std::string out = dir / "run";
+  // Its first 25 steps, then the checkpoint every 25 more.
+  const std::string args = "--threads 2 -q train " + quote(scene) + " -o " + quote(out) +
+                           " --checkpoint-every 25 --sh-degree 1 --seed 5 --max-gaussians 4000 --iters ";
+  auto first = lrf::test::run_lrf(args + "25");
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const std::string ckpt = out + "/checkpoint.pt";
+  const std::string before = lrf::read_file(ckpt);
+  ASSERT_GT(before.size(), 40000u);
+  // A killed write's temporary, as a crash leaves it.
+  lrf::write_file_atomic(out + "/point_cloud.ply.tmp1a2b3c", "half a file");
+  // Resumed with files limited to 32 KB: the next checkpoint cannot be written.
+  const std::string limited = "bash -c \"trap '' XFSZ; ulimit -f 32; exec " + std::string(LRF_BINARY) + " " +
+                              args + "150 --resume\" 2>&1";
+  std::string output;
+  FILE* p = ::popen(limited.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) output.append(buf, n);
+  const int status = ::pclose(p);
+  ASSERT_TRUE(WIFEXITED(status)) << output;
+  EXPECT_EQ(WEXITSTATUS(status), 1) << output;
+  EXPECT_NE(output.find("checkpoint.pt"), std::string::npos) << output;
+  EXPECT_NE(output.find("File too large"), std::string::npos) << output;
+  EXPECT_EQ(output.find("terminate"), std::string::npos) << output;  // no uncaught exception
+  for (const auto& e : fs::directory_iterator(out))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << "left behind: " << e.path();
+  EXPECT_TRUE(lrf::read_file(ckpt) == before) << "the previous checkpoint was damaged";
+  // With room again, the run resumes from it and finishes.
+  auto retry = lrf::test::run_lrf(args + "150 --resume");
+  EXPECT_EQ(retry.exit_code, 0) << retry.output;
+  EXPECT_TRUE(fs::exists(out + "/point_cloud.ply"));
 }

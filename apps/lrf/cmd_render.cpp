@@ -188,7 +188,7 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   cmd->add_option("--path", o->path, "Render a camera path instead of the scene's views: spiral (LLFF's spiral around "
                   "the mean training pose, for forward-facing scenes), orbit (a turn around the SfM points' centre, for "
                   "object scenes) or interp (smooth path through the training views)");
-  auto* frames = cmd->add_option("--frames", o->frames, "--path: number of frames")->capture_default_str();
+  auto* frames = cmd->add_option("--frames", o->frames, "--path: number of frames (1 to 100000)")->capture_default_str();
   auto* fps = cmd->add_option("--fps", o->fps, "--path: frames per second of the video")->capture_default_str();
   cmd->add_option("--video", o->video, "--path: the MP4 file to write (H.264; default OUT/renders/PATH.mp4 unless "
                   "--frames-dir is given)");

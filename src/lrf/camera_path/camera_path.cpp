@@ -38,7 +38,10 @@ std::vector<Eigen::Vector3d> point_positions(const Scene& scene) {
 }
 
 std::vector<Camera> make_path(const Scene& scene, PathKind kind, const PathOptions& options, PathGeometry* geometry) {
-  if (options.frames < 1) fail_usage("--frames must be at least 1");
+  if (options.frames < 1 || options.frames > kMaxPathFrames) {
+    fail_usage("--frames must be between 1 and " + std::to_string(kMaxPathFrames) + " (about an hour at 30 frames/s), got " +
+               std::to_string(options.frames));
+  }
   const auto cameras = training_cameras(scene);
   if (cameras.empty()) fail(scene.root, "the scene has no views to build a camera path from");
   const auto points = point_positions(scene);

@@ -60,6 +60,10 @@ Eigen::Vector3d orbit_center(const std::vector<Camera>& cameras, const std::vect
 
 // The path of `kind` for the scene's training cameras and SfM points. Throws lrf::Error for fewer than
 // one frame or a scene whose cameras do not define the path.
+// The most frames a path may have: the cameras are made up front, so an absurd count would fill the memory
+// before the first frame is drawn.
+constexpr int kMaxPathFrames = 100000;
+
 std::vector<Camera> make_path(const Scene& scene, PathKind kind, const PathOptions& options,
                               PathGeometry* geometry = nullptr);
 

@@ -46,9 +46,10 @@ void write_file_atomic(const std::string& path, const std::string& bytes) {
   write_atomic_with(path, [&](const std::string& tmp) {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
+    errno = 0;
     out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
     out.flush();
-    if (!out) fail(path, "write failed (disk full?)");
+    if (!out) fail(path, std::string("cannot write: ") + (errno ? std::strerror(errno) : "write failed") + " (disk full?)");
   });
 }
 
@@ -68,6 +69,20 @@ void write_atomic_with(const std::string& path, const std::function<void(const s
 }
 
 void move_into_place(const std::string& tmp, const std::string& path) { rename_into_place(tmp, path); }
+
+int remove_stale_temporaries(const std::string& folder) {
+  int removed = 0;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    const auto at = name.rfind(".tmp");
+    if (at == std::string::npos || at == 0 || at + 4 == name.size() || !entry.is_regular_file(ec)) continue;
+    const std::string hex = name.substr(at + 4);
+    if (hex.size() > 6 || hex.find_first_not_of("0123456789abcdef") != std::string::npos) continue;
+    if (std::filesystem::remove(entry.path(), ec)) ++removed;
+  }
+  return removed;
+}
 
 std::string read_file(const std::string& path) {
   std::error_code ec;

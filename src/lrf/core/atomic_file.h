@@ -14,5 +14,9 @@ void write_atomic_with(const std::string& path, const std::function<void(const s
 // fsyncs the finished `tmp` and renames it to `path` (removing `tmp` and throwing when that fails).
 void move_into_place(const std::string& tmp, const std::string& path);
 std::string read_file(const std::string& path);
+// Removes the temporaries that writes into `folder` left when their process was killed (NAME.tmpHEX, as
+// this file names them), not looking into subfolders. Call it while holding the folder's lock, so that no
+// live write's temporary is taken. Returns how many were removed.
+int remove_stale_temporaries(const std::string& folder);
 
 }  // namespace lrf

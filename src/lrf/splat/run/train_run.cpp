@@ -68,6 +68,7 @@ OutputFolder prepare_output_dir(const std::string& out, bool force, bool resume)
   // Locked before anything in it is looked at or removed: a job still writing it makes this one stop here.
   // Claimed at once, so that a failure below removes what this job created.
   OutputFolder claimed(FolderLock(out), out, std::move(created));
+  remove_stale_temporaries(out);
   bool non_empty = false;
   for (const auto& e : fs::directory_iterator(out)) non_empty = non_empty || e.path().filename() != ".lock";
   if (non_empty && !force && !resume) {

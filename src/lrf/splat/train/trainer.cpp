@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <sstream>
 
 #include <torch/serialize.h>
 
@@ -233,7 +234,12 @@ void Trainer::save_checkpoint(const std::string& path) const {
   ar.write("meta", torch::tensor({step_, adam_.steps_taken(), static_cast<int64_t>(g_.max_sh_degree),
                                   static_cast<int64_t>(options_.seed), options_.iterations},
                                  torch::kInt64));
-  write_atomic_with(path, [&](const std::string& tmp) { ar.save_to(tmp); });
+  // Serialised in memory, then written by write_file_atomic, which reports a failed write (a full disk) as
+  // an error naming the file and removes its temporary: libtorch's file writer throws from its destructor
+  // when the disk fills, which ends the process.
+  std::ostringstream bytes;
+  ar.save_to(bytes);
+  write_file_atomic(path, bytes.str());
 }
 
 void Trainer::load_checkpoint(const std::string& path) {
