@@ -11,11 +11,16 @@
 #include <torch/torch.h>
 
 #include "conv_reference.h"
+#include "lrf/autoencoder/autoencoder.h"
+#include "lrf/autoencoder/image_tensor.h"
 #include "lrf/autoencoder/conv/onednn_conv.h"
 #include "lrf/autoencoder/conv/winograd_f32.h"
 #include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/autoencoder/mixed_layers.h"
 #include "lrf/core/cpu_features.h"
+#include "lrf/core/image_io.h"
+#include "lrf/eval/metrics.h"
+#include "reference_helper.h"
 #include "test_helpers.h"
 
 namespace {
@@ -179,4 +184,27 @@ TEST(WinogradF32, LayersTakeItWhereItRunsAndTheCapTurnsItOff) {
   // Channel counts that are not multiples of the lanes are not taken.
   EXPECT_FALSE(lrf::WinogradF32Conv3x3::runs(16, 4));
   EXPECT_FALSE(lrf::WinogradF32Conv3x3::runs(3, 64));
+}
+
+TEST(WinogradF32, Taef2RoundTripOfARealViewIsTheDirectPathsOnEveryWidth) {
+  // The whole network through every path: the round trip of a fern view with the float32 Winograd kernels
+  // of each width against oneDNN's direct convolutions, within 0.01 dB (the budget is 0.05; float32
+  // rounding of the order of 1e-6 moves the PSNR by far less).
+  const auto isas = levels();
+  if (isas.empty()) GTEST_SKIP() << "this CPU has no AVX2 with FMA";
+  torch::NoGradGuard no_grad;
+  const at::Tensor x = lrf::image_to_batch(lrf::center_crop_to_multiple(
+      lrf::read_image_rgb(lrf_test::shared_dir() + "/scenes/llff-fern/images_8/image000.png"), 8));
+  auto psnr_with = [&](const char* isa, const char* winograd) {
+    lrf::test::ScopedEnv cap("LRF_CPU_ISA", isa), on("LRF_WINOGRAD", winograd);
+    auto ae = lrf::load_autoencoder(lrf_test::shared_dir() + "/models/taef2");  // built under this path
+    ae->set_precision(lrf::Precision::fp32);
+    return lrf::psnr(ae->decode(ae->encode(x))[0], x[0]);
+  };
+  const double direct = psnr_with(isas.back().c_str(), "0");
+  for (const auto& isa : isas) {
+    const double winograd = psnr_with(isa.c_str(), "1");
+    std::printf("TAEF2 round trip, fern view 0: %s Winograd %.4f dB, direct %.4f dB\n", isa.c_str(), winograd, direct);
+    EXPECT_NEAR(winograd, direct, 0.01) << isa;
+  }
 }
