@@ -11,6 +11,7 @@
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
+#include "lrf/core/image_io.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/scene.h"
 #include "test_helpers.h"
@@ -104,6 +105,25 @@ TEST(SceneErrors, UnreadableAndMixedSizeImages) {
   } catch (const lrf::Error& e) {
     EXPECT_NE(std::string(e.what()).find("view_004.png: image is 10x10, expected 64x48"), std::string::npos)
         << e.what();
+  }
+}
+
+// A JPEG cut short decodes to mostly grey with only libjpeg's "Premature end of JPEG file" on stderr: it is
+// refused naming the file; the whole JPEG still loads.
+TEST(SceneErrors, TruncatedJpegIsRefusedNamingTheFile) {
+  TempDir tmp("jpeg");
+  cv::Mat noise(96, 128, CV_8UC3);
+  cv::randu(noise, cv::Scalar::all(0), cv::Scalar::all(255));
+  const std::string whole = tmp / "whole.jpg", cut = tmp / "cut.jpg";
+  cv::imwrite(whole, noise);
+  const std::string bytes = lrf::read_file(whole);
+  lrf::write_file_atomic(cut, bytes.substr(0, bytes.size() * 2 / 3));
+  EXPECT_EQ(lrf::read_image_rgb(whole).size(), cv::Size(128, 96));
+  try {
+    lrf::read_image_rgb(cut);
+    FAIL() << "a truncated JPEG was read";
+  } catch (const lrf::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cut.jpg: truncated JPEG"), std::string::npos) << e.what();
   }
 }
 

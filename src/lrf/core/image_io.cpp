@@ -1,6 +1,8 @@
 #include "lrf/core/image_io.h"
 
+#include <algorithm>
 #include <filesystem>
+#include <fstream>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -9,9 +11,32 @@
 #include "lrf/core/error.h"
 
 namespace lrf {
+namespace {
+
+// A JPEG cut short (an interrupted copy or download) still decodes: libjpeg fills the missing rows with grey
+// and only prints "Premature end of JPEG file", naming no file. Its end-of-image marker (FF D9) is then
+// missing from the file's tail, which is checked here (in the last 4 KB, since some cameras append a few
+// bytes after it).
+void refuse_truncated_jpeg(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char head[2] = {0, 0};
+  if (!in.read(reinterpret_cast<char*>(head), 2) || head[0] != 0xFF || head[1] != 0xD8) return;  // not a JPEG
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff tail = std::min<std::streamoff>(size, 4096);
+  std::string bytes(static_cast<size_t>(tail), '\0');
+  in.seekg(size - tail);
+  if (!in.read(bytes.data(), tail)) return;
+  if (bytes.find("\xFF\xD9") == std::string::npos) {
+    fail(path, "truncated JPEG: the file ends without its end-of-image marker (an interrupted copy or download?)");
+  }
+}
+
+}  // namespace
 
 cv::Mat read_image_rgb(const std::string& path) {
   if (!std::filesystem::exists(path)) fail(path, "image file not found");
+  refuse_truncated_jpeg(path);
   cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
   if (bgr.empty()) fail(path, "cannot decode image (corrupt or unsupported format)");
   cv::Mat rgb;
