@@ -42,9 +42,15 @@ TEST(CliLatent, TrainRenderEval) {
   EXPECT_EQ(latent["latent"].sizes(), (std::vector<int64_t>{32, 6, 8}));
   EXPECT_TRUE(fs::exists(tmp / "r/view_000.png"));
 
-  auto eval = lrf::test::run_lrf("--quiet eval '" + out + "'");
+  auto eval = lrf::test::run_lrf("--quiet eval '" + out + "' --json");
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
   auto m = nlohmann::json::parse(eval.output);
+  // Without --json, a summary a person reads: units, which way is better, the autoencoder's ceiling.
+  auto summary = lrf::test::run_lrf("--quiet eval '" + out + "'");
+  ASSERT_EQ(summary.exit_code, 0) << summary.output;
+  for (const char* needle : {"PSNR", " dB   higher is better", "round trip of these views", "FLIP", "lower is better",
+                             "not computed: give --lpips-weights"})
+    EXPECT_NE(summary.output.find(needle), std::string::npos) << needle << " in: " << summary.output;
   EXPECT_TRUE(m["lpips"].is_null());
   EXPECT_GT(m["roundtrip_psnr"].get<double>(), m["psnr"].get<double>() - 1.0);
   auto metrics = lrf::read_json_file(out + "/metrics.json");

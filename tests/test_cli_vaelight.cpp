@@ -41,7 +41,7 @@ TEST(CliVaeLight, EveryCommandTakesTheFourChannelAutoencoder) {
   EXPECT_TRUE(fs::exists(dir / "renders"));
   auto eval = lrf::test::run_lrf("-q eval " + q(field));
   ASSERT_EQ(eval.exit_code, 0) << eval.output;
-  EXPECT_NE(eval.output.find("psnr"), std::string::npos) << eval.output;
+  EXPECT_NE(eval.output.find("PSNR"), std::string::npos) << eval.output;
 
   auto stage1 = lrf::test::run_lrf("--threads 2 -q finetune-encoder --scenes " + q(scene) +
                                    " --autoencoder vaelight --max-side 0 --crop 48 --steps 2 -o " + q(dir / "enc.safetensors"));

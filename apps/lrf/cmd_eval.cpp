@@ -3,8 +3,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "command.h"
+#include "next_steps.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
@@ -23,7 +25,46 @@ struct EvalOptions {
   double scale = 1.0;
   std::string decoder;
   std::string lpips_weights;
+  bool json = false;
 };
+
+// "0.542" for a number, "-" for null (a metric that could not be computed).
+std::string value(const nlohmann::json& v, const char* format) {
+  if (!v.is_number()) return "-";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, format, v.get<double>());
+  return buf;
+}
+
+// The scores as a person reads them: each metric with its unit and which way is better, and for a latent
+// field the ceiling its autoencoder sets (the round trip of the same views), then where the files went.
+void print_summary(const EvalOptions& o, const nlohmann::json& brief, bool latent) {
+  std::printf("%s: %zu test views\n", o.out.c_str(), static_cast<size_t>(brief["views"].get<int64_t>()));
+  std::printf("  PSNR     %8s dB   higher is better", value(brief["psnr"], "%.2f").c_str());
+  if (latent) {
+    std::printf(" (the autoencoder's own round trip of these views: %s dB)",
+                value(brief["roundtrip_psnr"], "%.2f").c_str());
+  }
+  std::printf("\n  SSIM     %8s      higher is better (1: identical)\n", value(brief["ssim"], "%.3f").c_str());
+  std::printf("  MS-SSIM  %8s      higher is better%s\n", value(brief["ms_ssim"], "%.3f").c_str(),
+              brief["ms_ssim"].is_null() ? " (the views are too small for its five scales)" : "");
+  std::printf("  FLIP     %8s      lower is better (0: identical)\n", value(brief["flip"], "%.3f").c_str());
+  std::printf("  LPIPS    %8s      lower is better%s\n", value(brief["lpips"], "%.3f").c_str(),
+              brief["lpips"].is_null() ? " (not computed: give --lpips-weights)" : "");
+  if (brief.contains("render_fps")) std::printf("  render   %8s frames/s\n", value(brief["render_fps"], "%.1f").c_str());
+}
+
+void report(const EvalOptions& o, const nlohmann::json& brief, bool latent) {
+  if (o.json) {
+    std::printf("%s\n", brief.dump().c_str());
+  } else {
+    print_summary(o, brief, latent);
+  }
+  std::fflush(stdout);
+  lrf::log_info("wrote " + (fs::path(o.out) / "metrics.json").string() + " (every view's scores) and the rendered test views in " +
+                (fs::path(o.out) / "eval").string());
+  lrf::cli::log_next_steps(o.out, "scored");
+}
 
 int run_eval_latent(const EvalOptions& o, bool nerf) {
   if (o.scale != 1.0) lrf::fail_usage("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
@@ -35,8 +76,7 @@ int run_eval_latent(const EvalOptions& o, bool nerf) {
                           {"lpips", m["lpips"]},
                           {"roundtrip_psnr", m["roundtrip_psnr"]}, {"latent_psnr", m["latent_psnr"]},
                           {"views", m["views"].size()}};
-  std::printf("%s\n", brief.dump().c_str());
-  lrf::log_info("wrote " + (fs::path(o.out) / "metrics.json").string());
+  report(o, brief, true);
   return 0;
 }
 
@@ -54,9 +94,7 @@ int run_eval(const EvalOptions& o) {
   const nlohmann::json m = evaluate_rgb_run(o.out, re);
   nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
                           {"lpips", m["lpips"]}, {"render_fps", m["render_fps"]}, {"views", m["views"].size()}};
-  std::printf("%s\n", brief.dump().c_str());
-  log_info("wrote " + (fs::path(o.out) / "metrics.json").string() + " and the rendered test views in " +
-           (fs::path(o.out) / "eval").string());
+  report(o, brief, false);
   return 0;
 }
 
@@ -72,6 +110,9 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
   cmd->add_option("--lpips-weights", o->lpips_weights,
                   "LPIPS (VGG, lpips v0.1 layout: net.slice*/lin* keys) weights file; without it "
                   "metrics.json has \"lpips\": null and the reason");
+  cmd->add_flag("--json", o->json,
+                "Print the scores as one JSON line (psnr, ssim, ms_ssim, flip, lpips, views; roundtrip_psnr and "
+                "latent_psnr for latent fields, render_fps for RGB ones) instead of the summary");
   lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o] { return run_eval(*o); });
 });

@@ -5,6 +5,7 @@
 
 #include "autoencoder_option.h"
 #include "command.h"
+#include "next_steps.h"
 #include "init_points_options.h"
 #include "preset_option.h"
 #include "scene_options.h"
@@ -277,6 +278,24 @@ int run_train(const TrainOptions& o) {
   return 0;
 }
 
+// A fresh run (presets applied), or `lrf train OUT --resume`.
+int train_or_resume(CLI::App* cmd, TrainOptions& o, bool iters_given, bool checkpoint_given, bool preset_given) {
+  lrf::find_preset(lrf::train_presets(), o.preset);  // an unknown name is refused before anything else
+  if (!o.resume) {
+    if (o.out.empty()) lrf::fail_usage("--out is required (the folder to train into)");
+    lrf::cli::apply_preset(cmd, lrf::train_presets(), o.preset, o.space);
+    return run_train(o);
+  }
+  // `lrf train OUT --resume`: the recorded scene is used anyway, so the folder may stand in its place.
+  if (o.out.empty()) o.out = o.scene;
+  // An RGB field of lrf train, compare or pipeline (one job trains them all, so they are recorded alike).
+  const auto kind = lrf::field_kind_of(o.out);
+  if (kind == lrf::FieldKind::latent_nerf)
+    return resume_train_nerf(o, iters_given, checkpoint_given, preset_given);
+  if (kind == lrf::FieldKind::rgb) return resume_train_rgb(o, iters_given, checkpoint_given, preset_given);
+  return run_train(resumed_options(o, iters_given, checkpoint_given, preset_given));
+}
+
 lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
   auto* cmd = root.add_subcommand("train", "Fit a Gaussian field (3D Gaussian splatting) to a scene");
   auto o = std::make_shared<TrainOptions>();
@@ -365,22 +384,11 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
       ->capture_default_str();
   auto* preset = lrf::cli::add_preset_option(cmd, lrf::train_presets(), &o->preset);
   lrf::cli::on_run(cmd, [cmd, o, iters, checkpoint, preset] {
-    lrf::find_preset(lrf::train_presets(), o->preset);  // an unknown name is refused before anything else
-    if (!o->resume) {
-      if (o->out.empty()) lrf::fail_usage("--out is required (the folder to train into)");
-      lrf::cli::apply_preset(cmd, lrf::train_presets(), o->preset, o->space);
-      return run_train(*o);
-    }
-    // `lrf train OUT --resume`: the recorded scene is used anyway, so the folder may stand in its place.
-    if (o->out.empty()) o->out = o->scene;
-    const bool preset_given = preset->count() > 0;
-    // An RGB field of lrf train, compare or pipeline (one job trains them all, so they are recorded alike).
-    const auto kind = lrf::field_kind_of(o->out);
-    if (kind == lrf::FieldKind::latent_nerf)
-      return resume_train_nerf(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
-    if (kind == lrf::FieldKind::rgb) return resume_train_rgb(*o, iters->count() > 0, checkpoint->count() > 0, preset_given);
-    return run_train(resumed_options(*o, iters->count() > 0, checkpoint->count() > 0, preset_given));
+    const int status = train_or_resume(cmd, *o, iters->count() > 0, checkpoint->count() > 0, preset->count() > 0);
+    if (status == 0) lrf::cli::log_next_steps(o->out, "trained");
+    return status;
   });
 });
 
 }  // namespace
+
