@@ -260,7 +260,7 @@ TEST_F(LatentNerfRun, CliTrainsRendersEvaluatesAndRefusesBadInput) {
   r = lrf::test::run_lrf("train " + out + " --resume --iters 20 -o " + out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(lrf::read_json_file(out + "/config.json")["result"]["steps"], 20);
-  r = lrf::test::run_lrf("eval " + out);
+  r = lrf::test::run_lrf("eval " + out + " --json");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("\"latent_psnr\""), std::string::npos) << r.output;
   r = lrf::test::run_lrf("render " + out + " --split test");

@@ -82,20 +82,23 @@ bool switched_off(const char* name) {
   return v && std::string(v) == "0";
 }
 
+// The tile side $NAME asks for, `fallback` when unset; anything but `a` or `b` is refused.
+int tile_from_env(const char* name, int fallback, int a, int b) {
+  const char* v = std::getenv(name);
+  if (!v || !*v) return fallback;
+  const std::string tile = v;
+  if (tile == std::to_string(a)) return a;
+  if (tile == std::to_string(b)) return b;
+  fail(std::string(name) + " must be " + std::to_string(a) + " or " + std::to_string(b) + ", got '" + tile + "'");
+}
+
 }  // namespace
 
 bool fused_conv_enabled() { return !switched_off("LRF_FUSED_CONV"); }
 
 bool winograd_enabled() { return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && cpu_has_avx512_bf16(); }
 
-int winograd_tile() {
-  const char* v = std::getenv("LRF_WINOGRAD_TILE");
-  if (!v || !*v) return 3;
-  const std::string tile = v;
-  if (tile == "2") return 2;
-  if (tile == "3") return 3;
-  fail("LRF_WINOGRAD_TILE must be 2 or 3, got '" + tile + "'");
-}
+int winograd_tile() { return tile_from_env("LRF_WINOGRAD_TILE", 3, 2, 3); }
 
 SimdLevel cpu_simd_level() {
 #if defined(__x86_64__) || defined(__i386__)
@@ -151,14 +154,7 @@ void apply_isa_cap_to_onednn() {
 
 bool cpu_has_avx2() { return simd_level() >= SimdLevel::avx2; }
 
-int winograd_f32_tile() {
-  const char* v = std::getenv("LRF_WINOGRAD_F32_TILE");
-  if (!v || !*v) return 4;
-  const std::string tile = v;
-  if (tile == "2") return 2;
-  if (tile == "4") return 4;
-  fail("LRF_WINOGRAD_F32_TILE must be 2 or 4, got '" + tile + "'");
-}
+int winograd_f32_tile() { return tile_from_env("LRF_WINOGRAD_F32_TILE", 4, 2, 4); }
 
 bool winograd_f32_enabled() {
   return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && simd_level() >= SimdLevel::avx2;

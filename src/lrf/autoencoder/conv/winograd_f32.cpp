@@ -10,6 +10,7 @@
 #include <torch/autograd.h>
 
 #include "lrf/autoencoder/conv/conv_destination.h"
+#include "lrf/autoencoder/conv/relu_mask.h"
 #include "lrf/autoencoder/conv/winograd_f32_kernels.h"
 #include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/core/cpu_features.h"
@@ -179,22 +180,6 @@ namespace {
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
-// The gradient through a ReLU: g where the ReLU's output y is positive, else 0, on the float32 bit patterns
-// (a positive float is a positive int32), branch-free so that the loop vectorises. Channels-last, same shape.
-at::Tensor relu_masked(const at::Tensor& g, const at::Tensor& y) {
-  at::Tensor out = at::empty_like(g, at::MemoryFormat::ChannelsLast);
-  const auto* gp = reinterpret_cast<const int32_t*>(g.data_ptr());
-  const auto* yp = reinterpret_cast<const int32_t*>(y.data_ptr());
-  auto* op = reinterpret_cast<int32_t*>(out.data_ptr());
-  at::parallel_for(0, g.numel(), 1 << 16, [=](int64_t begin, int64_t end) {
-    const int32_t* __restrict from = gp + begin;
-    const int32_t* __restrict sign = yp + begin;
-    int32_t* __restrict to = op + begin;
-    for (int64_t k = 0; k < end - begin; ++k) to[k] = from[k] & -static_cast<int32_t>(sign[k] > 0);
-  });
-  return out;
-}
-
 class WinogradF32Function : public torch::autograd::Function<WinogradF32Function> {
  public:
   // `bias`, `residual`: tensors of no elements for none (autograd::Function takes no undefined inputs).
@@ -217,7 +202,7 @@ class WinogradF32Function : public torch::autograd::Function<WinogradF32Function
     const auto saved = ctx->get_saved_variables();
     const at::Tensor &x = saved[0], &weight = saved[1];
     at::Tensor g = grad_outputs[0].to(at::kFloat).contiguous(at::MemoryFormat::ChannelsLast);
-    if (ctx->saved_data["relu"].toBool()) g = relu_masked(g, saved[2]);
+    if (ctx->saved_data["relu"].toBool()) g = relu_masked<int32_t>(g, saved[2]);
     at::Tensor grad_input, grad_weight, grad_bias, grad_residual;
     if (ctx->needs_input_grad(0)) {
       // The input's gradient: the output's gradient convolved with the kernels transposed ([I, O]) and flipped.

@@ -6,6 +6,7 @@
 #include <ATen/Parallel.h>
 #include <torch/autograd.h>
 
+#include "lrf/autoencoder/conv/relu_mask.h"
 #include "lrf/autoencoder/conv/winograd_conv.h"
 #include "lrf/autoencoder/conv/winograd_weight_gradient.h"
 #include "lrf/core/error.h"
@@ -15,26 +16,6 @@ namespace {
 
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
-
-// The gradient through a ReLU: g where the ReLU's output y is positive, else 0, on the bf16 bit patterns
-// (a positive bf16 is a positive int16), so that the loop vectorises. g and y channels-last, same shape.
-at::Tensor relu_masked(const at::Tensor& g, const at::Tensor& y) {
-  at::Tensor out = at::empty_like(g, at::MemoryFormat::ChannelsLast);
-  const auto* gp = reinterpret_cast<const int16_t*>(g.data_ptr());
-  const auto* yp = reinterpret_cast<const int16_t*>(y.data_ptr());
-  auto* op = reinterpret_cast<int16_t*>(out.data_ptr());
-  // Branch-free (the signs of a ReLU's input are close to random, so a branch mispredicts half the time)
-  // and on restrict pointers, so that it compiles to vector compares and ands.
-  at::parallel_for(0, g.numel(), 1 << 16, [=](int64_t begin, int64_t end) {
-    const int16_t* __restrict from = gp + begin;
-    const int16_t* __restrict sign = yp + begin;
-    int16_t* __restrict to = op + begin;
-    for (int64_t k = 0; k < end - begin; ++k) {
-      to[k] = static_cast<int16_t>(from[k] & -static_cast<int16_t>(sign[k] > 0));
-    }
-  });
-  return out;
-}
 
 class WinogradConvFunction : public torch::autograd::Function<WinogradConvFunction> {
  public:
@@ -60,7 +41,7 @@ class WinogradConvFunction : public torch::autograd::Function<WinogradConvFuncti
     const auto saved = ctx->get_saved_variables();
     const at::Tensor &x = saved[0], &weight = saved[1];
     at::Tensor g = grad_outputs[0].to(at::kBFloat16).contiguous(at::MemoryFormat::ChannelsLast);
-    if (ctx->saved_data["relu"].toBool()) g = relu_masked(g, saved[2]);
+    if (ctx->saved_data["relu"].toBool()) g = relu_masked<int16_t>(g, saved[2]);
     at::Tensor grad_input, grad_weight, grad_bias, grad_residual;
     if (ctx->needs_input_grad(0)) {
       // d(input) = the 'same' convolution of d(output) with w'[i][o][dy][dx] = w[o][i][2 - dy][2 - dx].
