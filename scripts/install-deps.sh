@@ -11,7 +11,7 @@ packages=(
   python3-numpy python3-torch
   libcpp-httplib-dev chromium
 )
-# libcpp-httplib-dev: lrf serve's HTTP server; chromium: the viewer's browser test (headless).
+# libcpp-httplib-dev: the HTTP client of the viewer's tests and benchmark; chromium: the viewer's browser test (headless).
 # Optional: colmap (SfM tool of the field, used only when a user asks for it); node and npm for the test
 # that opens a field's .ply in the npm package @playcanvas/splat-transform (skipped without node; any
 # node >= 18 already on the machine is kept rather than replaced by Debian's).

@@ -148,7 +148,9 @@ TEST(Video, RenderPathCliRgb) {
   // the field or the file named rules out a failure (1).
   const std::vector<std::pair<std::string, int>> refused = {
       {"--path helix", 2}, {"--path spiral --frames 0", 2}, {"--frames 5", 2}, {"--path spiral --split train", 2},
-      {"--path spiral --decoder x.safetensors", 1}, {"--path spiral --video '" + tmp.str() + "/x.avi'", 1}};
+      {"--path spiral --decoder x.safetensors", 1}, {"--path spiral --video '" + tmp.str() + "/x.avi'", 1},
+      // A billion frames once made the cameras first, silently, at 300 MB/s.
+      {"--path spiral --frames 1000000000", 2}, {"--path spiral --frames 100001", 2}};
   for (const auto& [bad, status] : refused) {
     auto b = lrf::test::run_lrf("render '" + field + "' " + bad);
     EXPECT_EQ(b.exit_code, status) << bad << "\n" << b.output;

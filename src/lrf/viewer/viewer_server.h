@@ -1,9 +1,9 @@
 #pragma once
-// lrf serve's HTTP server (cpp-httplib): the viewer page's own files, the scene (GET /api/scene) and
-// frames (GET /api/frame, JPEG; see frame_request.h), nothing else. Frames are rendered one at a time in
-// arrival order, stale ones dropped (render_queue.h). Request sizes are bounded (no request bodies, URI
-// and headers by cpp-httplib's 8 KiB limits) and, bound to a loopback address, requests must name a
-// loopback host (a web page elsewhere cannot reach the server through DNS rebinding).
+// lrf serve's HTTP server: the viewer page's own files, the scene (GET /api/scene) and frames
+// (GET /api/frame, JPEG; see frame_request.h), nothing else. Frames are rendered one at a time in arrival
+// order, stale ones dropped (render_queue.h). Requests are bounded before they are read (no bodies, an
+// 8 KiB target, a 16 KiB head; http_server.h) and, bound to a loopback address, must name a loopback host
+// (a web page elsewhere cannot reach the server through DNS rebinding).
 #include <memory>
 #include <string>
 
@@ -15,7 +15,7 @@ struct ServeOptions {
   std::string host = "127.0.0.1";
   int port = 8080;     // 0: any free port (see ViewerServer::port)
   int max_side = 2048;  // largest frame side a page may ask for
-  int threads = 32;    // connection threads (browsers keep a few connections per tab open)
+  int threads = 32;    // request handler threads (connections waiting for a request hold none)
   int jpeg_quality = 90;
 };
 
