@@ -1,5 +1,6 @@
 // The command line's own errors: one exit-status scheme (0 done, 1 failed, 2 usage error), a mistyped
 // subcommand named with the closest one, --threads validated, and --log-json honoured by parse errors too.
+#include <filesystem>
 #include <string>
 #include <utility>
 #include <vector>
@@ -103,6 +104,13 @@ TEST(CliUsage, StepsHaveOneNameAndTheOldSpellingsAreAliases) {
     const auto t = lrf::test::run_lrf("train " + scene + " -o " + dir / "out" + " " + name + " 0");
     EXPECT_EQ(t.exit_code, 2) << name << "\n" << t.output;
     EXPECT_NE(t.output.find("--steps must be at least 1"), std::string::npos) << name << "\n" << t.output;
+  }
+  // Past the bound, and past 2^64 (which used to be read as the largest integer): usage errors, no run.
+  for (const char* steps : {"100000001", "99999999999999999999999"}) {
+    const auto t = lrf::test::run_lrf("train " + scene + " -o " + dir / "big" + " --steps " + steps);
+    EXPECT_EQ(t.exit_code, 2) << steps << "\n" << t.output;
+    EXPECT_NE(t.output.find("--steps"), std::string::npos) << steps << "\n" << t.output;
+    EXPECT_FALSE(std::filesystem::exists(dir / "big")) << steps;
   }
   // Each command's help names the option and its alias together.
   for (const auto& [cmd, names] : std::vector<std::pair<std::string, std::string>>{

@@ -57,6 +57,9 @@ TEST(Progress, FormatsDurations) {
   EXPECT_EQ(lrf::Progress::format_duration(12.34), "12.3s");
   EXPECT_EQ(lrf::Progress::format_duration(185), "3m05s");
   EXPECT_EQ(lrf::Progress::format_duration(3720), "1h02m");
+  // Long estimates in days, and never an overflowed hour count (a step count near 2^63 gave "-2147483648h").
+  EXPECT_EQ(lrf::Progress::format_duration(3 * 86400 + 5 * 3600 + 120), "3d05h");
+  EXPECT_EQ(lrf::Progress::format_duration(1e30), "more than 30 years");
 }
 
 TEST(RunInfo, JsonRoundTripAndBadJsonNamesFile) {

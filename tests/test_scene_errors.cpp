@@ -196,6 +196,45 @@ TEST(SceneErrors, NonFinitePosesAndIntrinsicsNameTheFileTheViewAndTheValue) {
   EXPECT_FALSE(fs::exists(tmp / "out"));
 }
 
+// Numbers that are finite but belong to no scene: a camera at 1e308 (it used to surface only as "training
+// diverged"), a NaN point (it made the whole field NaN), a pose that is scaled or sheared (it trained
+// without a word, on cameras that see a distorted scene). Each is refused, naming the file and the record.
+TEST(SceneErrors, FarCamerasNanPointsAndNonRotationsAreRefused) {
+  TempDir tmp("implausible");
+  fs::create_directories(tmp / "llff_far");
+  fern_with_pose_value(tmp / "llff_far", 3, 3, 1e308);
+  expect_cli_error(tmp / "llff_far", "poses_bounds.npy: row 3 (image003.png): camera position x is 1e+308, beyond the +-1e9");
+  // Entry [0][0] is the down axis' first component: 2 makes that column longer than 1.
+  fs::create_directories(tmp / "llff_scaled");
+  fern_with_pose_value(tmp / "llff_scaled", 5, 0, 2.0);
+  expect_cli_error(tmp / "llff_scaled", "poses_bounds.npy: row 5 (image005.png): the pose's 3x3 block is not a rotation");
+
+  const lrf::ColmapModel synthetic = lrf::read_colmap_model(lrf::test::synthetic_scene() + "/sparse/0");
+  lrf::ColmapModel nan_point = synthetic;
+  nan_point.points[7].xyz.y() = std::nan("");
+  colmap_scene(tmp / "colmap_p", nan_point);
+  expect_cli_error(tmp / "colmap_p",
+                   "points3D.bin: point " + std::to_string(nan_point.points[7].id) + ": coordinate y is NaN");
+  lrf::ColmapModel far_camera = synthetic;
+  far_camera.images[1].tvec.z() = -3e12;
+  colmap_scene(tmp / "colmap_far", far_camera);
+  expect_cli_error(tmp / "colmap_far", "translation tz is -3e+12, beyond the +-1e9");
+
+  // transforms.json: a camera-to-world matrix whose rotation part is scaled by 1.5.
+  fs::create_directories(tmp / "nerf_scaled");
+  fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", tmp / "nerf_scaled/images");
+  nlohmann::json frames = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i) {
+    const double k = i == 1 ? 1.5 : 1.0;
+    frames.push_back({{"file_path", "images/view_00" + std::to_string(i) + ".png"},
+                      {"transform_matrix", {{k, 0, 0, i}, {0, k, 0, 0}, {0, 0, k, 4}, {0, 0, 0, 1}}}});
+  }
+  lrf::write_file_atomic(tmp / "nerf_scaled/transforms.json",
+                         nlohmann::json({{"camera_angle_x", 0.8}, {"frames", frames}}).dump());
+  expect_cli_error(tmp / "nerf_scaled", "frame 'images/view_001.png': transform_matrix's 3x3 block is not a rotation "
+                                        "(its columns have lengths 1.5, 1.5, 1.5 and its determinant is 3.375");
+}
+
 // A camera with a focal length that is not positive projects nothing: every reader refuses it, naming the
 // file and the camera. The LLFF and transforms.json readers did; a negative COLMAP focal length used to be
 // read, and training stopped later with the rasterizer's "render: focal lengths must be positive", no file named.

@@ -10,4 +10,13 @@ namespace lrf {
 // record (a view, a camera), `what` the value.
 void require_finite(double value, const std::string& path, const std::string& where, const std::string& what);
 
+// A scene coordinate (a camera position or translation, a point) larger than this is a damaged number,
+// not a capture: 1e9 is a million kilometres in metres, and float32, which fields train in, keeps no
+// detail of a scene that far from its origin. A camera at 1e308 used to surface only as "training
+// diverged".
+constexpr double kMaxSceneCoordinate = 1e9;
+
+// require_finite, and within +-kMaxSceneCoordinate.
+void require_coordinate(double value, const std::string& path, const std::string& where, const std::string& what);
+
 }  // namespace lrf

@@ -43,7 +43,12 @@ double Progress::eta_seconds(long step) const {
 std::string Progress::format_duration(double seconds) {
   char buf[64];
   if (!std::isfinite(seconds) || seconds < 0) return "?";
-  if (seconds >= 3600) {
+  // Days past two of them: an hour count of a long estimate used to overflow an int ("-2147483648h").
+  if (seconds >= 1e9) return "more than 30 years";
+  if (seconds >= 48 * 3600) {
+    std::snprintf(buf, sizeof buf, "%lldd%02dh", static_cast<long long>(seconds / 86400),
+                  static_cast<int>(std::fmod(seconds, 86400) / 3600));
+  } else if (seconds >= 3600) {
     std::snprintf(buf, sizeof buf, "%dh%02dm", int(seconds / 3600), int(std::fmod(seconds, 3600) / 60));
   } else if (seconds >= 60) {
     std::snprintf(buf, sizeof buf, "%dm%02ds", int(seconds / 60), int(std::fmod(seconds, 60)));

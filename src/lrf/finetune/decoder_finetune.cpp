@@ -11,6 +11,7 @@
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
@@ -143,6 +144,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
   if (!o.encoder.empty()) refuse_output_over_input(o.out, o.encoder, "the fields' encoder");
   refuse_output_over_input(o.out, o.autoencoder, "the autoencoder's weights");
   if (o.steps < 1 || o.batch < 1) fail("finetune-decoder: --steps and --batch must be at least 1");
+  check_training_steps(o.steps);
   if (o.weight_train < 0 || o.weight_novel < 0 || o.weight_train + o.weight_novel <= 0)
     fail("finetune-decoder: the loss weights must be >= 0 and not both 0");
   if (!(o.lambda_ssim >= 0 && o.lambda_ssim <= 1)) fail_usage("finetune-decoder: --lambda-ssim must be between 0 and 1");

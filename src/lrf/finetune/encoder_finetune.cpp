@@ -9,6 +9,7 @@
 
 #include "lrf/align/correspondence_loss.h"
 #include "lrf/autoencoder/kl_vae.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
@@ -183,6 +184,7 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
   }
   if (o.out.empty()) fail("finetune-encoder: no output file (-o)");
   if (o.steps < 1 || o.batch.pairs < 1) fail("finetune-encoder: --steps and --pairs must be at least 1");
+  check_training_steps(o.steps);
   const int world = std::max(1, o.distributed.world_size);
   if (o.batch.pairs < world) {
     fail("finetune-encoder: --pairs " + std::to_string(o.batch.pairs) + " is the global batch, split over " +

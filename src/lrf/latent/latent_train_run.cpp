@@ -3,6 +3,7 @@
 
 #include <torch/torch.h>
 
+#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -36,7 +37,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
 LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   using namespace lrf::splat;
   if (o.sh_degree < 0 || o.sh_degree > 3) fail_usage("--sh-degree must be 0..3");
-  if (o.iters < 1) fail_usage("--steps must be at least 1");
+  check_training_steps(o.iters);
   if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
   if (!(o.rgb_guide >= 0)) fail_usage("--rgb-guide must be 0 (off) or a positive weight");
   require_latent_scene_options(o.scene_options, "latent");

@@ -6,6 +6,7 @@
 
 #include <torch/torch.h>
 
+#include "lrf/core/training_steps.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
@@ -57,7 +58,7 @@ splat::OutputFolder prepare_nerf_output(const LatentNerfOptions& o) {
 }
 
 void check_options(const LatentNerfOptions& o) {
-  if (o.iters < 1) fail_usage("--steps must be at least 1");
+  check_training_steps(o.iters);
   if (o.rays < 1 || o.rays > (1 << 20)) fail_usage("--rays must be between 1 and 1048576");
   if (o.samples < 2 || o.samples > 1024) fail_usage("--samples must be between 2 and 1024");
   if (o.log2_table < 10 || o.log2_table > 24) fail_usage("--hash-log2 must be between 10 and 24");

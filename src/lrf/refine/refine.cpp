@@ -11,6 +11,7 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/image_tensor.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
@@ -41,6 +42,7 @@ void check_options(const RefineOptions& o) {
     fail(o.out, "refine writes a new run: choose another output folder");
   }
   if (o.steps < 0) fail("refine: --steps must be 0 (" + std::to_string(kRefineStepsPerView) + " per training view) or positive");
+  if (o.steps > 0) check_training_steps(o.steps);
   if (o.crop < 0 || o.crop % 8) fail("refine: --crop must be 0 (whole views) or a positive multiple of 8");
   if (!(o.lr_scale > 0) || !(o.position_lr > 0) || !(o.lr_final > 0 && o.lr_final <= 1))
     fail("refine: learning rates must be positive, and --lr-final in (0, 1]");

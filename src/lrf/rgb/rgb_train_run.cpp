@@ -4,6 +4,7 @@
 
 #include <torch/torch.h>
 
+#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -25,7 +26,7 @@ void check_options(const RgbTrainOptions& o) {
   check_init_points_mode(o.init_points.mode);
   if (o.factor < 1) fail_usage("the training views' reduction factor must be at least 1");
   if (o.sh_degree < 0 || o.sh_degree > 3) fail_usage("--sh-degree must be 0..3");
-  if (o.iters < 1) fail_usage("--steps must be at least 1");
+  check_training_steps(o.iters);
   if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
   if (o.scene_options.downscale < 1) fail_usage("--downscale must be at least 1");
   if (o.coarse_factor < 1) fail_usage("--coarse-factor must be at least 1");

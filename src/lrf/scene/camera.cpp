@@ -1,10 +1,24 @@
 #include "lrf/scene/camera.h"
 
 #include <cmath>
+#include <cstdio>
+
+#include "lrf/core/error.h"
 
 #include "lrf/scene/raw_scene.h"
 
 namespace lrf {
+
+void require_rotation(const Eigen::Matrix3d& R, const std::string& path, const std::string& where, const std::string& what) {
+  const double off = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  const double det = R.determinant();
+  if (off <= 1e-3 && det > 0) return;
+  char text[160];
+  std::snprintf(text, sizeof text, "its columns have lengths %.4g, %.4g, %.4g and its determinant is %.4g", R.col(0).norm(),
+                R.col(1).norm(), R.col(2).norm(), det);
+  fail(path, where + ": " + what + " is not a rotation (" + text +
+                 "; a rotation's are 1, 1, 1 and 1): a scaled, sheared or mirrored camera cannot be used");
+}
 
 void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center) {
   cam->R = R_c2w.transpose();

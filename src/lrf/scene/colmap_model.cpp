@@ -75,7 +75,7 @@ void check_image_pose(const ColmapImage& im, const std::string& path) {
   static const char* const kQ[] = {"qw", "qx", "qy", "qz"};
   static const char* const kT[] = {"tx", "ty", "tz"};
   for (int k = 0; k < 4; ++k) require_finite(im.qvec[k], path, where, std::string("rotation quaternion ") + kQ[k]);
-  for (int k = 0; k < 3; ++k) require_finite(im.tvec[k], path, where, std::string("translation ") + kT[k]);
+  for (int k = 0; k < 3; ++k) require_coordinate(im.tvec[k], path, where, std::string("translation ") + kT[k]);
   if (im.qvec.norm() == 0) fail(path, where + ": rotation quaternion is zero");
 }
 
@@ -187,6 +187,13 @@ std::vector<ColmapImage> parse_images_txt(const std::string& bytes, const std::s
   return images;
 }
 
+// A point's position must be a usable coordinate: one NaN used to make the whole field NaN, reported only
+// as "training diverged".
+void require_point(const ColmapPoint& p, const std::string& path) {
+  for (int k = 0; k < 3; ++k)
+    require_coordinate(p.xyz[k], path, "point " + std::to_string(p.id), std::string("coordinate ") + "xyz"[k]);
+}
+
 std::vector<ColmapPoint> parse_points_bin(const std::string& bytes, const std::string& path) {
   BinaryReader r(bytes, path);
   uint64_t n = r.read<uint64_t>();
@@ -197,6 +204,7 @@ std::vector<ColmapPoint> parse_points_bin(const std::string& bytes, const std::s
     ColmapPoint p;
     p.id = static_cast<int64_t>(r.read<uint64_t>());
     for (int k = 0; k < 3; ++k) p.xyz[k] = r.read<double>();
+    require_point(p, path);
     for (int k = 0; k < 3; ++k) p.rgb[k] = r.read<uint8_t>() / 255.0f;
     p.error = r.read<double>();
     uint64_t track = r.read<uint64_t>();
@@ -217,6 +225,7 @@ std::vector<ColmapPoint> parse_points_txt(const std::string& bytes, const std::s
     ColmapPoint p;
     int r, g, b;
     if (!(s >> p.id >> p.xyz[0] >> p.xyz[1] >> p.xyz[2] >> r >> g >> b)) fail(path, "malformed point line: " + line);
+    require_point(p, path);
     p.rgb = Eigen::Vector3f(r, g, b) / 255.0f;
     if (!(s >> p.error)) p.error = 0;
     points.push_back(p);

@@ -69,7 +69,9 @@ RawScene read_llff_scene(const std::string& root, const std::string& images_dir)
     // The near/far bounds (the last two numbers) are not used, so only the pose block is checked.
     const std::string view = "row " + std::to_string(i) + " (" + files[i] + ")";
     for (int row = 0; row < 3; ++row)
-      for (int col = 0; col < 5; ++col) require_finite(at(row, col), npy_path, view, llff_entry_name(row, col));
+      for (int col = 0; col < 5; ++col)
+        col == 3 ? require_coordinate(at(row, col), npy_path, view, llff_entry_name(row, col))
+                 : require_finite(at(row, col), npy_path, view, llff_entry_name(row, col));
     RawView v;
     v.name = files[i];
     v.image_rel = (fs::path(images_dir) / files[i]).string();
@@ -80,6 +82,7 @@ RawScene read_llff_scene(const std::string& root, const std::string& images_dir)
     R_c2w.col(0) = Eigen::Vector3d(at(0, 1), at(1, 1), at(2, 1));
     R_c2w.col(1) = Eigen::Vector3d(at(0, 0), at(1, 0), at(2, 0));
     R_c2w.col(2) = -Eigen::Vector3d(at(0, 2), at(1, 2), at(2, 2));
+    require_rotation(R_c2w, npy_path, view, "the pose's 3x3 block");
     Eigen::Vector3d center(at(0, 3), at(1, 3), at(2, 3));
     set_pose_from_camera_to_world(&v.camera, R_c2w, center);
     v.camera.width = static_cast<int>(std::lround(w));

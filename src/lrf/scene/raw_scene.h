@@ -49,6 +49,10 @@ void parse_transforms(const std::string& text, const std::string& path, const Tr
 // The images folder of a NeRF scene: the common first path component of the views' files ("" if none).
 std::string common_images_dir(const std::vector<RawView>& views);
 
+// Throws lrf::Error(path, "<where>: <what> is not a rotation ...") unless R is one: orthonormal within 1e-3
+// (what a file's printed digits leave) with determinant +1. A scaled, sheared or mirrored matrix used to
+// train without a word, on cameras that see a distorted scene.
+void require_rotation(const Eigen::Matrix3d& R, const std::string& path, const std::string& where, const std::string& what);
 // Builds the world-to-camera part of a Camera from an OpenCV camera-to-world matrix.
 void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center);
 // Sorted file names of the images (by extension) in a folder; empty if the folder does not exist.

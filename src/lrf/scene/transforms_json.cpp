@@ -70,9 +70,11 @@ void parse_transforms(const std::string& text, const std::string& path, const Tr
     const std::string frame = "frame '" + v.image_rel + "'";
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 4; ++c)
-        require_finite(c2w(r, c), path, frame, "transform_matrix[" + std::to_string(r) + "][" + std::to_string(c) + "]");
+        (c == 3 ? require_coordinate : require_finite)(c2w(r, c), path, frame,
+                                                       "transform_matrix[" + std::to_string(r) + "][" + std::to_string(c) + "]");
     // OpenGL camera (x right, y up, z back) -> OpenCV (x right, y down, z forward).
     Eigen::Matrix3d R = c2w.topLeftCorner<3, 3>();
+    require_rotation(R, path, frame, "transform_matrix's 3x3 block");
     R.col(1) *= -1;
     R.col(2) *= -1;
     set_pose_from_camera_to_world(&v.camera, R, c2w.topRightCorner<3, 1>());
