@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
@@ -106,6 +107,42 @@ TEST(SceneErrors, UnreadableAndMixedSizeImages) {
     EXPECT_NE(std::string(e.what()).find("view_004.png: image is 10x10, expected 64x48"), std::string::npos)
         << e.what();
   }
+}
+
+// A JPEG of `image` whose EXIF orientation tag says "rotate 90 degrees clockwise to view" (6), as a phone
+// held upright writes it: an APP1 segment with a one-entry TIFF directory, right after the start marker.
+std::string jpeg_tagged_rotate_90(const cv::Mat& image) {
+  std::vector<uchar> jpeg;
+  cv::imencode(".jpg", image, jpeg, {cv::IMWRITE_JPEG_QUALITY, 98});
+  const unsigned char exif[] = {0xFF, 0xE1, 0x00, 0x22, 'E', 'x', 'i', 'f', 0, 0,             // APP1, 34 bytes
+                                'I', 'I', 0x2A, 0x00, 0x08, 0x00, 0x00, 0x00,                 // TIFF, IFD at 8
+                                0x01, 0x00,                                                   // one entry
+                                0x12, 0x01, 0x03, 0x00, 0x01, 0x00, 0x00, 0x00, 0x06, 0x00, 0x00, 0x00,  // Orientation 6
+                                0x00, 0x00, 0x00, 0x00};                                      // no next IFD
+  std::string bytes(jpeg.begin(), jpeg.begin() + 2);
+  bytes.append(reinterpret_cast<const char*>(exif), sizeof exif);
+  bytes.append(jpeg.begin() + 2, jpeg.end());
+  return bytes;
+}
+
+// A posed scene whose photo carries an EXIF rotation: its pixels are used as stored, as COLMAP posed them
+// (it was turned upright and refused as "images of mixed sizes"); a photo read on its own is upright.
+TEST(SceneErrors, ExifRotatedPhotosInAPosedSceneAreReadAsStored) {
+  TempDir tmp("exif");
+  copy_synthetic(tmp / "s");
+  const std::string view = tmp / "s/images/view_002.png";  // decoded by its content, whatever its name
+  const cv::Mat stored = cv::imread(view, cv::IMREAD_COLOR);
+  ASSERT_EQ(stored.size(), cv::Size(64, 48));
+  lrf::write_file_atomic(view, jpeg_tagged_rotate_90(stored));
+  EXPECT_EQ(lrf::read_image_rgb(view).size(), cv::Size(48, 64));  // upright, as a viewer shows it
+  EXPECT_EQ(lrf::read_image_rgb(view, lrf::ExifOrientation::as_stored).size(), cv::Size(64, 48));
+  const lrf::Scene s = lrf::load_scene(tmp / "s");
+  const cv::Mat loaded = s.load_image(2);
+  EXPECT_EQ(loaded.size(), cv::Size(64, 48));
+  // The same pixels up to JPEG's loss, not a rotated or resampled copy.
+  cv::Mat original = lrf::to_float(stored);
+  cv::cvtColor(original, original, cv::COLOR_BGR2RGB);
+  EXPECT_LT(cv::norm(loaded, original, cv::NORM_L1) / (64.0 * 48 * 3), 0.03);
 }
 
 // A JPEG cut short decodes to mostly grey with only libjpeg's "Premature end of JPEG file" on stderr: it is

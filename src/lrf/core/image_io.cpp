@@ -34,10 +34,12 @@ void refuse_truncated_jpeg(const std::string& path) {
 
 }  // namespace
 
-cv::Mat read_image_rgb(const std::string& path) {
+cv::Mat read_image_rgb(const std::string& path, ExifOrientation orientation) {
   if (!std::filesystem::exists(path)) fail(path, "image file not found");
   refuse_truncated_jpeg(path);
-  cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
+  const int flags = orientation == ExifOrientation::as_stored ? cv::IMREAD_COLOR | cv::IMREAD_IGNORE_ORIENTATION
+                                                              : cv::IMREAD_COLOR;
+  cv::Mat bgr = cv::imread(path, flags);
   if (bgr.empty()) fail(path, "cannot decode image (corrupt or unsupported format)");
   cv::Mat rgb;
   cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);

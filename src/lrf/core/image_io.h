@@ -7,9 +7,14 @@
 
 namespace lrf {
 
+// What a JPEG's EXIF orientation tag does to its pixels. A scene's images are read as stored, because
+// that is how COLMAP posed them (a phone photo tagged "rotate 90" used to be turned upright here and then
+// refused as "images of mixed sizes"); a photo on its own is turned upright, as an image viewer shows it.
+enum class ExifOrientation { upright, as_stored };
+
 // Decodes an image file as RGB float32 in [0, 1]; throws lrf::Error if missing or unreadable.
-cv::Mat read_image_rgb(const std::string& path);
-// Width and height of an image file without keeping its pixels.
+cv::Mat read_image_rgb(const std::string& path, ExifOrientation orientation = ExifOrientation::upright);
+// Width and height of an image file as stored (no EXIF rotation) without keeping its pixels.
 cv::Size read_image_size(const std::string& path);
 // Writes an RGB float image (values clamped to [0, 1]) or an 8-bit RGB image as PNG/JPG, atomically.
 void write_image_rgb(const std::string& path, const cv::Mat& rgb);

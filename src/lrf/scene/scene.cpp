@@ -11,7 +11,7 @@ namespace lrf {
 cv::Mat Scene::load_image(int i) const {
   if (i < 0 || i >= static_cast<int>(views.size())) fail("view index " + std::to_string(i) + " out of range");
   const View& v = views[i];
-  cv::Mat img = read_image_rgb(v.image_path);
+  cv::Mat img = read_image_rgb(v.image_path, ExifOrientation::as_stored);
   if (img.cols != v.file_width || img.rows != v.file_height) {
     fail(v.image_path, "image is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) + ", expected " +
                            std::to_string(v.file_width) + "x" + std::to_string(v.file_height) +
