@@ -109,6 +109,25 @@ TEST(SceneErrors, UnreadableAndMixedSizeImages) {
   }
 }
 
+// transforms.json's file_path is read inside the scene folder only: "../" or an absolute path was followed
+// wherever it led. A folder linked into the scene still works (the other tests' scenes are built so).
+TEST(SceneErrors, FilePathsOutsideTheSceneFolderAreRefused) {
+  TempDir tmp("outside");
+  for (const std::string& outside : {std::string("../secret/view_000.png"), std::string("/etc/hostname"),
+                                     std::string("images/../../secret/view_000.png")}) {
+    const std::string dir = tmp / ("s" + std::to_string(outside.size()));
+    fs::create_directories(dir);
+    fs::create_directory_symlink(lrf::test::synthetic_scene() + "/images", dir + "/images");
+    nlohmann::json frames = nlohmann::json::array();
+    for (int i = 0; i < 3; ++i) {
+      frames.push_back({{"file_path", i == 2 ? outside : "images/view_00" + std::to_string(i) + ".png"},
+                        {"transform_matrix", {{1, 0, 0, i}, {0, 1, 0, 0}, {0, 0, 1, 4}, {0, 0, 0, 1}}}});
+    }
+    lrf::write_file_atomic(dir + "/transforms.json", nlohmann::json({{"camera_angle_x", 0.8}, {"frames", frames}}).dump());
+    expect_cli_error(dir, "transforms.json: file_path '" + outside + "' leads outside the scene folder");
+  }
+}
+
 // A JPEG of `image` whose EXIF orientation tag says "rotate 90 degrees clockwise to view" (6), as a phone
 // held upright writes it: an APP1 segment with a one-entry TIFF directory, right after the start marker.
 std::string jpeg_tagged_rotate_90(const cv::Mat& image) {

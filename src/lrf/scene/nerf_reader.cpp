@@ -14,6 +14,12 @@ std::string resolve_image(const std::string& root, const std::string& base_dir, 
                           const std::string& json_path) {
   if (rel.rfind("./", 0) == 0) rel = rel.substr(2);
   fs::path p = fs::path(base_dir) / rel;
+  // A scene is its folder: lrf reads nothing outside it on a file's say-so (a link inside it is the
+  // user's own choice and is followed).
+  const fs::path normal = p.lexically_normal();
+  if (normal.is_absolute() || (!normal.empty() && *normal.begin() == ".."))
+    fail(json_path, "file_path '" + rel + "' leads outside the scene folder " + root +
+                        "; a scene's images must lie inside it (move them in, or link their folder in)");
   if (!p.has_extension() || !fs::exists(fs::path(root) / p)) {
     // The NeRF synthetic scenes list "./train/r_0" without the extension.
     for (const char* ext : {".png", ".jpg", ".jpeg", ".JPG", ".PNG"}) {
