@@ -8,8 +8,10 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <sqlite3.h>
 
 #include "lrf/core/atomic_file.h"
+#include "lrf/scene/colmap_cameras_by_size.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/colmap_program.h"
 #include "lrf/scene/scene.h"
@@ -226,6 +228,76 @@ TEST(SceneCreateColmap, TumblerPhotosBecomeAScene) {
   EXPECT_NE(r.output.find("mapper: already reconstructed"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("scene: already written"), std::string::npos) << r.output;
   EXPECT_EQ(lrf::load_scene(tmp / "scene").views.size(), scene.views.size());
+}
+
+// share_cameras_by_image_size on a database as COLMAP's feature extractor leaves it with one camera per
+// image: the images of each size end up on one camera, the spare cameras are gone.
+TEST(SceneCreate, CamerasAreSharedByPhotosOfOneSize) {
+  TempDir tmp("cameras_by_size");
+  const std::string path = tmp / "database.db";
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::string sql =
+      "CREATE TABLE cameras (camera_id INTEGER PRIMARY KEY, model INTEGER, width INTEGER, height INTEGER, params BLOB,"
+      " prior_focal_length INTEGER);"
+      "CREATE TABLE images (image_id INTEGER PRIMARY KEY, name TEXT, camera_id INTEGER);";
+  const int sizes[][2] = {{400, 300}, {400, 225}, {400, 300}, {300, 400}, {400, 225}, {400, 300}};
+  for (int i = 0; i < 6; ++i) {
+    const std::string id = std::to_string(i + 1);
+    sql += "INSERT INTO cameras VALUES (" + id + ", 4, " + std::to_string(sizes[i][0]) + ", " +
+           std::to_string(sizes[i][1]) + ", NULL, 0); INSERT INTO images VALUES (" + id + ", 'p" + id + ".jpg', " + id + ");";
+  }
+  ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+
+  EXPECT_EQ(lrf::share_cameras_by_image_size(path), 3);
+
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::map<int, int> camera_of;
+  sqlite3_stmt* st = nullptr;
+  sqlite3_prepare_v2(db, "SELECT image_id, camera_id FROM images", -1, &st, nullptr);
+  while (sqlite3_step(st) == SQLITE_ROW) camera_of[sqlite3_column_int(st, 0)] = sqlite3_column_int(st, 1);
+  sqlite3_finalize(st);
+  int cameras = 0;
+  sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM cameras", -1, &st, nullptr);
+  if (sqlite3_step(st) == SQLITE_ROW) cameras = sqlite3_column_int(st, 0);
+  sqlite3_finalize(st);
+  sqlite3_close(db);
+  EXPECT_EQ(cameras, 3);
+  EXPECT_EQ(camera_of, (std::map<int, int>{{1, 1}, {2, 2}, {3, 1}, {4, 4}, {5, 2}, {6, 1}}));
+  EXPECT_NE(lrf::test::error_of([&] { lrf::share_cameras_by_image_size(tmp / "nothing.db"); }).find("nothing.db"),
+            std::string::npos);
+}
+
+// Photos of mixed sizes, as a phone capture mixing zooms or crops makes them: 14 of tumbler's photos, 4 of
+// them cropped to 16:9. One camera per photo fitted each photo's distortion from its own matches and kept
+// 80x60 crops of some; the photos of each size now share a camera, and every view keeps most of its photo.
+TEST(SceneCreateColmap, PhotosOfMixedSizesMakeAWholeScene) {
+  if (!lrf::colmap_available()) GTEST_SKIP() << "COLMAP is not installed (Debian: apt-get install colmap)";
+  TempDir tmp("create_mixed");
+  fs::create_directories(tmp / "photos");
+  for (int i = 1; i <= 14; ++i) {
+    const std::string name = std::to_string(i) + ".jpg";
+    cv::Mat photo = cv::imread(lrf::test::scene_dir("tumbler") + "/images/" + name);
+    ASSERT_EQ(photo.size(), cv::Size(800, 600));
+    if (i % 4 == 2) photo = photo(cv::Rect(0, 75, 800, 450)).clone();
+    cv::imwrite(tmp / ("photos/" + name), photo);
+  }
+  auto r = run_lrf("--threads 2 scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene") +
+                   " --max-side 400");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("camera for each of the 2 photo sizes"), std::string::npos) << r.output;
+  const lrf::Scene scene = lrf::load_scene(tmp / "scene");
+  EXPECT_GE(scene.views.size(), 10u) << r.output;
+  int cropped = 0;
+  for (const auto& v : scene.views) {
+    const bool wide = std::stoi(v.name.substr(0, v.name.find('.'))) % 4 == 2;
+    cropped += wide;
+    const int photo_height = wide ? 225 : 300;
+    EXPECT_GE(v.camera.width, 0.8 * 400) << v.name;
+    EXPECT_GE(v.camera.height, 0.8 * photo_height) << v.name;
+  }
+  EXPECT_GE(cropped, 2) << "the cropped photos were registered too";
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "lrf/core/progress.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/colmap_program.h"
+#include "lrf/scene/colmap_cameras_by_size.h"
 #include "lrf/scene/photo_import.h"
 #include "lrf/scene/step_records.h"
 
@@ -144,6 +145,37 @@ class StepTimer {
   std::chrono::steady_clock::time_point start_;
 };
 
+// Undistortion keeps the part of a photo that its fitted lens maps inside a rectangle; a badly fitted
+// distortion leaves a sliver (80x60 of a 400x300 photo was seen), which would train a field on almost
+// nothing. Views kept at under 0.4 of a photo's width or height are refused, naming the photos.
+void refuse_collapsed_undistortion(const fs::path& model, const std::vector<PreparedPhoto>& photos,
+                                   const std::string& photos_dir) {
+  const auto cameras = read_colmap_cameras((model / "cameras.bin").string());
+  std::string collapsed;
+  int count = 0;
+  for (const auto& image : read_colmap_images((model / "images.bin").string())) {
+    const auto photo = std::find_if(photos.begin(), photos.end(), [&](const auto& p) { return p.name == image.name; });
+    const auto camera = cameras.find(image.camera_id);
+    if (photo == photos.end() || camera == cameras.end()) continue;
+    const auto& c = camera->second;
+    // Widening by up to 2x and then --max_image_size's cap can leave 0.5 of a side legitimately; the
+    // failures seen kept 0.2.
+    const double kept_w = double(c.width) / photo->width, kept_h = double(c.height) / photo->height;
+    if (std::min(kept_w, kept_h) < 0.4) {
+      ++count;
+      if (count <= 5)
+        collapsed += "\n  " + image.name + ": " + std::to_string(c.width) + "x" + std::to_string(c.height) + " of its " +
+                     std::to_string(photo->width) + "x" + std::to_string(photo->height);
+    }
+  }
+  if (count == 0) return;
+  fail(photos_dir, "COLMAP's undistortion kept only a small part of " + std::to_string(count) + " photo" +
+                       (count == 1 ? "" : "s") + ", whose lens distortion was fitted badly:" + collapsed +
+                       "\nRemove these photos, or add more photos of the same size (a camera is fitted to the "
+                       "photos of each size together), or try --camera-model SIMPLE_RADIAL, which fits fewer "
+                       "distortion terms");
+}
+
 std::string step_label(int step) { return "[" + std::to_string(step) + "/" + std::to_string(kSteps) + "] "; }
 
 }  // namespace
@@ -203,7 +235,8 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
   // intrinsics are then fitted to all of them at once, which keeps the focal length well determined even
   // from few photos. OPENCV (focal lengths, principal point, two radial and two tangential terms) covers
   // what is left of a phone lens's distortion, and undistortion at the end turns it into the pinhole
-  // cameras lrf works with. Photos of different sizes cannot share a camera: each then gets its own.
+  // cameras lrf works with. Photos of different sizes cannot share a camera: those of each size share one
+  // (colmap_cameras_by_size.h says why not one per photo).
   bool shared_camera = true;
   for (const auto& p : prepared) {
     shared_camera = shared_camera && p.width == prepared.front().width && p.height == prepared.front().height;
@@ -211,14 +244,17 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
   const std::string matcher =
       o.matcher != "auto" ? o.matcher : n <= o.exhaustive_up_to ? "exhaustive" : "sequential";
   // The matches are stored in the database the features start, so another matcher starts a fresh one.
+  std::set<std::pair<int, int>> sizes;
+  for (const auto& p : prepared) sizes.insert({p.width, p.height});
   const std::string feature_settings = "camera_model " + o.camera_model + "\nshared_camera " +
-                                       std::to_string(shared_camera) + "\nmatcher " + matcher;
+                                       std::to_string(shared_camera) + "\ncameras per size\nmatcher " + matcher;
   if (records.skip("features", feature_settings, fs::exists(database))) {
     log_info(step_label(2) + "features: already extracted (" + database + ")");
   } else {
     log_info(step_label(2) + "features: SIFT on " + count_of(prepared.size(), "photo") + ", " +
              (shared_camera ? "one " + o.camera_model + " camera shared by all"
-                            : "one " + o.camera_model + " camera per photo (their sizes differ)"));
+                            : "one " + o.camera_model + " camera for each of the " +
+                                  std::to_string(sizes.size()) + " photo sizes"));
     StepTimer t;
     fs::remove(database);
     log_heading(log, "colmap feature_extractor");
@@ -227,6 +263,7 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
                 "--ImageReader.single_camera", shared_camera ? "1" : "0", "--SiftExtraction.use_gpu", "0",
                 "--SiftExtraction.num_threads", threads},
                log);
+    if (!shared_camera) share_cameras_by_image_size(database);
     records.finished("features");
     log_info("    done in " + t.elapsed());
   }
@@ -329,6 +366,7 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
     records.finished("undistort");
     log_info("    done in " + t.elapsed());
   }
+  refuse_collapsed_undistortion(undistorted / "sparse", prepared, o.photos);
 
   // 6. The scene itself.
   if (records.skip("scene", "", fs::exists(scene / "sparse" / "0" / "images.bin") && fs::is_directory(scene / "images"))) {
