@@ -1,17 +1,22 @@
 // lrf scene create: from plain photos to a scene through COLMAP. Its bad-input paths need no COLMAP; the
 // end-to-end test runs COLMAP on a dozen of tumbler's photos and is skipped only where COLMAP is missing.
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <thread>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 #include <sqlite3.h>
 
+#include "child_process.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/scene/colmap_cameras_by_size.h"
+#include "lrf/scene/colmap_match_report.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/colmap_program.h"
 #include "lrf/scene/scene.h"
@@ -181,8 +186,89 @@ TEST(SceneCreateColmap, UnrelatedPhotosAreAClearError) {
   auto r = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
   EXPECT_EQ(r.exit_code, 1) << r.output;
   EXPECT_NE(r.output.find("colmap.log"), std::string::npos) << r.output;
+  // A diagnosis a photographer can act on, from what the matcher found.
+  EXPECT_NE(r.output.find("What the matcher found: of the 6 pairs of the 4 photos"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("What to try: more photos"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(tmp / "scene/sparse"));
   EXPECT_NE(lrf::test::error_of([&] { lrf::load_scene(tmp / "scene"); }), "");
+}
+
+// The diagnosis when the mapper cannot start, on a database as the matcher leaves it: 5 photos, one pair
+// close to the mapper's threshold, one photo that matched nothing.
+TEST(SceneCreate, MatchReportSaysHowWellThePhotosMatchedAndWhatToTry) {
+  TempDir tmp("match_report");
+  const std::string path = tmp / "database.db";
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &db), SQLITE_OK);
+  std::string sql = "CREATE TABLE images (image_id INTEGER PRIMARY KEY, name TEXT, camera_id INTEGER);"
+                    "CREATE TABLE two_view_geometries (pair_id INTEGER PRIMARY KEY, rows INTEGER, cols INTEGER, data BLOB,"
+                    " config INTEGER);";
+  for (int i = 1; i <= 5; ++i) sql += "INSERT INTO images VALUES (" + std::to_string(i) + ", 'p" + std::to_string(i) + ".jpg', 1);";
+  const auto pair = [](int64_t a, int64_t b) { return std::to_string(a * 2147483647 + b); };
+  sql += "INSERT INTO two_view_geometries VALUES (" + pair(1, 2) + ", 80, 2, NULL, 2);";  // close to 100
+  sql += "INSERT INTO two_view_geometries VALUES (" + pair(2, 3) + ", 40, 2, NULL, 2);";
+  sql += "INSERT INTO two_view_geometries VALUES (" + pair(3, 4) + ", 20, 2, NULL, 2);";
+  sql += "INSERT INTO two_view_geometries VALUES (" + pair(4, 5) + ", 9, 2, NULL, 2);";    // below 15
+  sql += "INSERT INTO two_view_geometries VALUES (" + pair(1, 5) + ", 0, 0, NULL, 1);";    // no model
+  ASSERT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  const std::string report = lrf::describe_matches(path, 100);
+  EXPECT_NE(report.find("of the 10 pairs of the 5 photos, 3 share at least 15 verified matches, 0 of them the 100"),
+            std::string::npos) << report;
+  EXPECT_NE(report.find("Best pairs: p1.jpg + p2.jpg (80), p2.jpg + p3.jpg (40), p3.jpg + p4.jpg (20)"), std::string::npos)
+      << report;
+  EXPECT_NE(report.find("1 photo matches no other: p5.jpg"), std::string::npos) << report;
+  EXPECT_NE(report.find("--init-min-inliers 60"), std::string::npos) << report;
+  EXPECT_NE(lrf::test::error_of([&] { lrf::describe_matches(tmp / "none.db", 100); }).find("none.db"), std::string::npos);
+}
+
+// A stand-in for COLMAP in `dir`: answers `help`, and for a step either records its PID and sleeps, as a
+// long matching step does, or fails at once.
+void fake_colmap(const std::string& dir, bool sleeps) {
+  fs::create_directories(dir);
+  const std::string script = "#!/bin/sh\n[ \"$1\" = help ] && exit 0\n" +
+                             (sleeps ? "echo $$ > '" + dir + "/colmap.pid'\nexec sleep 600\n" : std::string("exit 3\n"));
+  lrf::write_file_atomic(dir + "/colmap", script);
+  fs::permissions(dir + "/colmap", fs::perms::owner_all);
+}
+
+// Ctrl-C was ignored while COLMAP ran (std::system), SIGTERM left COLMAP running as an orphan holding the
+// database, and a retry failed with "database is locked". Now either signal stops COLMAP and lrf (exit
+// 128 + the signal), the scene folder is locked while a run writes it, and the retry starts at once.
+TEST(SceneCreate, SignalsStopColmapAndTheRunAndARetryStarts) {
+  TempDir tmp("create_stop");
+  write_photos(tmp / "photos", 3);
+  fake_colmap(tmp / "bin", true);
+  const std::string path = tmp / "bin" + ":" + std::getenv("PATH");
+  lrf::test::ScopedEnv fake_path("PATH", path.c_str());
+  for (const int signal : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(signal == SIGINT ? "SIGINT" : "SIGTERM");
+    const std::string pid_file = tmp / "bin/colmap.pid", log = tmp / "lrf.log";
+    fs::remove(pid_file);
+    lrf::test::ChildProcess lrf({LRF_BINARY, "scene", "create", tmp / "photos", "-o", tmp / "scene"}, false, log);
+    const auto start = std::chrono::steady_clock::now();
+    while (!fs::exists(pid_file) || lrf::read_file(pid_file).empty()) {
+      ASSERT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(60)) << lrf::read_file(log);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    const pid_t colmap = std::stoi(lrf::read_file(pid_file));
+    // A second run on the same folder meanwhile is refused, naming the holder.
+    const auto second = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
+    EXPECT_EQ(second.exit_code, 1) << second.output;
+    EXPECT_NE(second.output.find("in use by another lrf job"), std::string::npos) << second.output;
+
+    ::kill(lrf.pid(), signal);
+    EXPECT_EQ(lrf.wait(30), 128 + signal) << lrf::read_file(log);
+    EXPECT_NE(lrf::read_file(log).find("during colmap feature_extractor, which was stopped too"), std::string::npos)
+        << lrf::read_file(log);
+    EXPECT_NE(::kill(colmap, 0), 0) << "COLMAP outlived lrf";
+    EXPECT_FALSE(fs::exists(tmp / "scene/.lock"));
+  }
+  // The retry runs COLMAP again straight away (this stand-in fails at once).
+  fake_colmap(tmp / "bin", false);
+  const auto retry = run_lrf("scene create " + quoted(tmp / "photos") + " -o " + quoted(tmp / "scene"));
+  EXPECT_EQ(retry.exit_code, 1) << retry.output;
+  EXPECT_NE(retry.output.find("colmap feature_extractor failed (exit code 3)"), std::string::npos) << retry.output;
 }
 
 // A dozen of tumbler's photos (a cup on a desk, taken around it), downscaled to 400 pixels: COLMAP

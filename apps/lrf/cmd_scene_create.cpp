@@ -49,10 +49,14 @@ lrf::cli::CommandRegistration reg(11, [](CLI::App& root) {
       ->check(CLI::IsMember({"auto", "exhaustive", "sequential"}))
       ->capture_default_str();
   cmd->add_option("--camera-model", o->camera_model,
-                  "COLMAP's camera model, one camera shared by all photos when they have one size (one per photo "
-                  "otherwise). OPENCV fits a phone lens's remaining distortion; PINHOLE or SIMPLE_PINHOLE for "
+                  "COLMAP's camera model, one camera shared by the photos of each size. OPENCV fits a phone lens's remaining distortion; PINHOLE or SIMPLE_PINHOLE for "
                   "photos that are already undistorted. The scene's cameras are PINHOLE in every case")
       ->check(CLI::IsMember({"OPENCV", "SIMPLE_RADIAL", "RADIAL", "PINHOLE", "SIMPLE_PINHOLE"}))
+      ->capture_default_str();
+  cmd->add_option("--init-min-inliers", o->init_min_inliers,
+                  "Verified matches the pair of photos COLMAP's mapper starts from must share; lower it (to 50, "
+                  "say) when the mapper finds no initial pair and the report shows that the best pairs fall short")
+      ->check(CLI::Range(15, 100000))
       ->capture_default_str();
   cmd->add_flag("--force", o->force,
                 "Start over: remove what an earlier run left in SCENE (colmap/, colmap.log, images/, sparse/) "

@@ -8,11 +8,14 @@
 #include <vector>
 
 #include "lrf/core/error.h"
+#include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
+#include "lrf/core/stop_request.h"
 #include "lrf/scene/colmap_model.h"
 #include "lrf/scene/colmap_program.h"
 #include "lrf/scene/colmap_cameras_by_size.h"
+#include "lrf/scene/colmap_match_report.h"
 #include "lrf/scene/photo_import.h"
 #include "lrf/scene/step_records.h"
 
@@ -196,6 +199,10 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
          "(3.8 or later) for structure from motion; install it with `apt-get install colmap` (Debian, Ubuntu), "
          "which scripts/install-deps.sh tries as an optional package");
   }
+  // One run at a time per scene folder, as for training: two would write the same COLMAP database (and
+  // --force would clear a folder another run is writing).
+  fs::create_directories(o.scene);
+  const FolderLock lock(o.scene);
   prepare_scene_folder(o);
 
   const fs::path scene(o.scene), work = fs::path(o.scene) / "colmap";
@@ -290,7 +297,8 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
 
   // 4. Poses and points. The mapper may split the photos into several unconnected models.
   const fs::path sparse = work / "sparse";
-  if (records.skip("mapper", "", !mapper_models(sparse).empty())) {
+  const std::string mapper_settings = "init_min_inliers " + std::to_string(o.init_min_inliers);
+  if (records.skip("mapper", mapper_settings, !mapper_models(sparse).empty())) {
     log_info(step_label(4) + "mapper: already reconstructed (" + sparse.string() + ")");
   } else {
     log_info(step_label(4) + "mapper: camera poses and 3D points from " + count_of(prepared.size(), "photo"));
@@ -304,12 +312,15 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
       run_colmap(o.colmap, "mapper",
                  {"--database_path", database, "--image_path", images, "--output_path", sparse.string(),
                   "--Mapper.num_threads", threads, "--Mapper.min_model_size",
-                  std::to_string(min_registered_photos(n))},
+                  std::to_string(min_registered_photos(n)), "--Mapper.init_min_num_inliers",
+                  std::to_string(o.init_min_inliers)},
                  log);
+    } catch (const Interrupted&) {
+      throw;
     } catch (const Error& e) {
-      // Its usual reason is none of COLMAP's own words: the photos did not match.
-      throw Error(std::string(e.what()) + "(the mapper fails when the photos share too few features to start a "
-                  "model from: they need to overlap well, each part of the scene seen in several sharp photos)");
+      // Its usual reason is none of COLMAP's own words: the photos did not match. What the matcher found
+      // says how badly, and what to change.
+      throw Error(std::string(e.what()) + describe_matches(database, o.init_min_inliers));
     }
     records.finished("mapper");
     log_info("    done in " + t.elapsed());
@@ -317,8 +328,7 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
   const auto models = mapper_models(sparse);
   if (models.empty()) {
     fail(log, "COLMAP's mapper could not reconstruct any part of the scene from the " +
-                  count_of(prepared.size(), "photo") + " (too little overlap or texture between them?); the end "
-                  "of its output:\n" + file_tail(log, 15));
+                  count_of(prepared.size(), "photo") + ".\n" + describe_matches(database, o.init_min_inliers));
   }
   SceneFromPhotosResult result;
   result.photos = n;

@@ -17,6 +17,7 @@ struct SceneFromPhotosOptions {
   std::string matcher = "auto";  // auto | exhaustive | sequential
   int exhaustive_up_to = 100;     // auto: exhaustive up to this many photos, sequential above
   std::string camera_model = "OPENCV";  // COLMAP's model for the capture's camera (undistorted at the end)
+  int init_min_inliers = 100;  // verified matches of the pair the mapper starts from (COLMAP's default)
   bool force = false;  // start over, ignoring (and removing) an earlier run's work
   int threads = 0;     // COLMAP's threads; 0 = all cores
   std::string colmap = "colmap";  // the program, looked up on PATH

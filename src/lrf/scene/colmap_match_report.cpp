@@ -1,0 +1,127 @@
+#include "lrf/scene/colmap_match_report.h"
+
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <map>
+#include <tuple>
+#include <vector>
+
+#include "lrf/core/error.h"
+
+namespace lrf {
+namespace {
+
+// COLMAP numbers a pair of images (id1 < id2) as id1 * 2^31-1 + id2.
+constexpr int64_t kMaxImageId = 2147483647;
+
+struct PairMatches {
+  int64_t first, second;
+  int64_t inliers;
+};
+
+class ReadOnlyDatabase {
+ public:
+  explicit ReadOnlyDatabase(const std::string& path) : path_(path) {
+    if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+      const std::string message = db_ ? sqlite3_errmsg(db_) : "cannot open";
+      sqlite3_close(db_);
+      db_ = nullptr;
+      fail(path, "cannot open the COLMAP database: " + message);
+    }
+  }
+  ~ReadOnlyDatabase() { sqlite3_close(db_); }
+  ReadOnlyDatabase(const ReadOnlyDatabase&) = delete;
+  ReadOnlyDatabase& operator=(const ReadOnlyDatabase&) = delete;
+
+  std::map<int64_t, std::string> image_names() {
+    std::map<int64_t, std::string> names;
+    sqlite3_stmt* st = prepare("SELECT image_id, name FROM images");
+    while (sqlite3_step(st) == SQLITE_ROW) {
+      const auto* name = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
+      names[sqlite3_column_int64(st, 0)] = name ? name : "";
+    }
+    sqlite3_finalize(st);
+    return names;
+  }
+
+  // Verified matches per pair (the rows of two_view_geometries with a model, config > 0).
+  std::vector<PairMatches> verified_pairs() {
+    std::vector<PairMatches> pairs;
+    sqlite3_stmt* st = prepare("SELECT pair_id, rows, config FROM two_view_geometries");
+    while (sqlite3_step(st) == SQLITE_ROW) {
+      const int64_t id = sqlite3_column_int64(st, 0), rows = sqlite3_column_int64(st, 1);
+      if (sqlite3_column_int64(st, 2) <= 0) continue;
+      pairs.push_back({id / kMaxImageId, id % kMaxImageId, rows});
+    }
+    sqlite3_finalize(st);
+    return pairs;
+  }
+
+ private:
+  sqlite3_stmt* prepare(const char* sql) {
+    sqlite3_stmt* st = nullptr;
+    if (sqlite3_prepare_v2(db_, sql, -1, &st, nullptr) != SQLITE_OK)
+      fail(path_, std::string("not a COLMAP database (") + sqlite3_errmsg(db_) + ")");
+    return st;
+  }
+
+  std::string path_;
+  sqlite3* db_ = nullptr;
+};
+
+std::string joined(const std::vector<std::string>& names, size_t at_most) {
+  std::string out;
+  for (size_t i = 0; i < names.size() && i < at_most; ++i) out += (i ? ", " : "") + names[i];
+  if (names.size() > at_most) out += " and " + std::to_string(names.size() - at_most) + " more";
+  return out;
+}
+
+}  // namespace
+
+std::string describe_matches(const std::string& database, int init_min_inliers) {
+  ReadOnlyDatabase db(database);
+  const auto names = db.image_names();
+  auto pairs = db.verified_pairs();
+  std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
+  std::map<int64_t, int> partners;  // photo -> photos it matched
+  int matched = 0, strong = 0;
+  for (const auto& p : pairs) {
+    if (p.inliers < kMatchedPairMinInliers) continue;
+    ++matched;
+    strong += p.inliers >= init_min_inliers;
+    ++partners[p.first];
+    ++partners[p.second];
+  }
+  const auto name_of = [&](int64_t id) {
+    const auto it = names.find(id);
+    return it == names.end() ? "image " + std::to_string(id) : it->second;
+  };
+  std::vector<std::string> alone;
+  for (const auto& [id, name] : names)
+    if (!partners.count(id)) alone.push_back(name);
+  const size_t n = names.size();
+  std::string out = "What the matcher found: of the " + std::to_string(n * (n - 1) / 2) + " pairs of the " +
+                    std::to_string(n) + " photos, " + std::to_string(matched) + " share at least " +
+                    std::to_string(kMatchedPairMinInliers) + " verified matches, " + std::to_string(strong) +
+                    " of them the " + std::to_string(init_min_inliers) + " the mapper needs to start from a pair.";
+  if (!pairs.empty()) {
+    std::vector<std::string> best;
+    for (size_t i = 0; i < pairs.size() && i < 3; ++i)
+      best.push_back(name_of(pairs[i].first) + " + " + name_of(pairs[i].second) + " (" +
+                     std::to_string(pairs[i].inliers) + ")");
+    out += "\nBest pairs: " + joined(best, 3) + ".";
+  }
+  if (!alone.empty())
+    out += "\n" + std::to_string(alone.size()) + " photo" + (alone.size() == 1 ? " matches" : "s match") +
+           " no other: " + joined(alone, 8) + ".";
+  out += "\nWhat to try: more photos, taken closer together (each overlapping its neighbours by about two "
+         "thirds, the subject sharp and textured, no zoom changes)";
+  if (!pairs.empty() && pairs.front().inliers >= kMatchedPairMinInliers && pairs.front().inliers < init_min_inliers)
+    out += "; or let the mapper start from a weaker pair: --init-min-inliers " +
+           std::to_string(std::max<int64_t>(kMatchedPairMinInliers * 2, pairs.front().inliers * 3 / 4));
+  out += "; or keep the photos larger for more features to match (--max-side 0 keeps them as they are).";
+  return out;
+}
+
+}  // namespace lrf
