@@ -74,16 +74,29 @@ TEST(Compare, ReusesFinishedMethodsAndFinishesInterruptedOnesBeforeScoring) {
   // channels), with its time, memory and speed from the same metrics.
   const std::string efficiency = lrf::read_file(dir / "cmp/efficiency.csv");
   EXPECT_EQ(efficiency.rfind("method,fitted_to,train_seconds,peak_memory_mb,storage_mb,gaussians,render_fps,decode_fps,"
-                             "psnr,ssim\n", 0), 0u) << efficiency;
+                             "psnr,ssim,view_fps\n", 0), 0u) << efficiency;
   EXPECT_NE(efficiency.find("\nrgb/8,8x6 RGB,"), std::string::npos) << efficiency;
   EXPECT_NE(efficiency.find("\nlatent,8x6x32 latents,"), std::string::npos) << efficiency;
+  // The tables a person reads ask one question each: quality in table.md, cost in efficiency.md, with
+  // labels and units; a latent row's view rate includes its decode.
+  const std::string quality_md = lrf::read_file(dir / "cmp/table.md"), cost_md = lrf::read_file(dir / "cmp/efficiency.md");
+  EXPECT_NE(quality_md.find("PSNR dB"), std::string::npos) << quality_md;
+  EXPECT_EQ(quality_md.find("fit time"), std::string::npos) << quality_md;
+  EXPECT_NE(cost_md.find("view fps"), std::string::npos) << cost_md;
+  EXPECT_EQ(cost_md.find("PSNR"), std::string::npos) << cost_md;
+  const nlohmann::json latent_metrics = lrf::read_json_file(dir / "cmp/latent/metrics.json");
+  const double render = latent_metrics["render_fps"], decode = latent_metrics["decode_fps"];
+  const std::string last_line = efficiency.substr(efficiency.rfind("\nlatent,") + 1);
+  const double view = std::stod(last_line.substr(last_line.rfind(',') + 1));
+  EXPECT_NEAR(view, 1.0 / (1.0 / render + 1.0 / decode), 1e-3 * view) << efficiency;
+  EXPECT_LT(view, render);
   EXPECT_NE(lrf::read_file(dir / "cmp/report.html").find("<h2>Efficiency</h2>"), std::string::npos);
   const double flip = lrf::read_json_file((cmp / "latent" / "metrics.json").string()).value("flip", -1.0);
   EXPECT_GT(flip, 0.0);
   EXPECT_LT(flip, 1.0);
 }
 
-// The report describes the methods of its table and no others, marks the columns where lower is better,
+// The report describes the methods of its table and no others, labels its columns and marks which way is better,
 // and names lrf once in its footer (it read "lrf lrf 0.1.0").
 TEST(Compare, ReportDescribesOnlyItsMethods) {
   lrf::test::TempDir dir("compare_report");
@@ -99,8 +112,8 @@ TEST(Compare, ReportDescribesOnlyItsMethods) {
                             "3DGS-VAE", "Feature 3DGS"}) {
     EXPECT_EQ(text.find(other), std::string::npos) << other << " in " << text;
   }
-  EXPECT_NE(html.find("flip <span title=\"lower is better\">&darr;</span>"), std::string::npos);
-  EXPECT_EQ(html.find("psnr <span"), std::string::npos) << "higher is better: no arrow";
+  EXPECT_NE(html.find("FLIP <span title=\"lower is better\">&darr;</span>"), std::string::npos);
+  EXPECT_NE(html.find("PSNR dB <span title=\"higher is better\">&uarr;</span>"), std::string::npos);
   EXPECT_NE(html.find("<footer>Written by lrf 0."), std::string::npos);
   EXPECT_EQ(html.find("lrf lrf"), std::string::npos);
 }

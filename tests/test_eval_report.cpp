@@ -119,11 +119,15 @@ TEST(EvalTable, CsvAndMarkdownFiles) {
             "a|b,19,,0.25,5\n");
   lrf::write_table_markdown(dir / "table.md", header, rows);
   EXPECT_EQ(lrf::read_file(dir / "table.md"),
-            "| method          |  psnr |   ssim |  lpips | gaussians |\n"
-            "| --------------- | ----: | -----: | -----: | --------: |\n"
-            "| rgb/8           | 21.12 | 0.7123 |      \u2013 |     12000 |\n"
-            "| latent, \"stock\" | 22.50 | 0.7500 | 0.3127 |     34567 |\n"
-            "| a\\|b            | 19.00 |      \u2013 | 0.2500 |         5 |\n");
+            "| method          | PSNR dB |  SSIM | LPIPS | Gaussians |\n"
+            "| --------------- | ------: | ----: | ----: | --------: |\n"
+            "| rgb/8           |   21.12 | 0.712 |     \u2013 |     12000 |\n"
+            "| latent, \"stock\" |   22.50 | 0.750 | 0.313 |     34567 |\n"
+            "| a\\|b            |   19.00 |     \u2013 | 0.250 |         5 |\n");
+  // Keys it does not know are shown with spaces for underscores.
+  EXPECT_EQ(lrf::column_label("delta_psnr"), "\u0394 PSNR dB");
+  EXPECT_EQ(lrf::column_label("train_seconds"), "fit time s");
+  EXPECT_EQ(lrf::column_label("some_new_column"), "some new column");
 }
 
 TEST(EvalTable, RowWidthMismatchNamesTheFile) {
@@ -156,7 +160,7 @@ TEST(EvalReport, SelfContainedPageWithViewsAndNumbers) {
   spec.summary_header = {"method", "psnr", "ssim", "lpips"};
   spec.summary_rows = {{"rgb/8", 19.87, 0.6012, lrf::Cell()},
                        {"rgb/8-mip", 20.11, 0.6101, lrf::Cell()},
-                       {"latent", 21.43, 0.6555, lrf::Cell()}};
+                       {"latent", 21.43, 0.6561, lrf::Cell()}};
   spec.summary_better = {lrf::Better::none, lrf::Better::higher, lrf::Better::higher, lrf::Better::lower};
   spec.notes = {"LPIPS needs --lpips-weights; not given, so it is \"null\".", "Second note."};
   const std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent"};
@@ -186,7 +190,7 @@ TEST(EvalReport, SelfContainedPageWithViewsAndNumbers) {
   EXPECT_EQ(html.find("<TAEF2>"), std::string::npos);
   // Summary: numbers, the missing LPIPS, and the best PSNR/SSIM in bold.
   EXPECT_NE(html.find("<td class=\"num best\">21.43</td>"), std::string::npos);
-  EXPECT_NE(html.find("<td class=\"num best\">0.6555</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td class=\"num best\">0.656</td>"), std::string::npos);  // SSIM to 3 decimals
   EXPECT_NE(html.find("<td class=\"num\">19.87</td>"), std::string::npos);
   EXPECT_EQ(count(html, "<td class=\"num missing\">\u2013</td>"), 3u);
   // Per view: its name, ground truth first, then the methods with their numbers.

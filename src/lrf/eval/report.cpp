@@ -74,19 +74,19 @@ bool is_best(const std::vector<Row>& rows, size_t col, Better better, size_t row
   return rows[row][col].number == best;
 }
 
-// A column's name as a header cell: it may wrap after its underscores (compare's twelve columns then fit a
-// 1280-pixel window without scrolling), and a column where lower is better says so with an arrow.
+// A column's label as a header cell (column_label: "PSNR dB", not psnr), with an arrow that says which
+// way is better where one is.
 std::string header_cell(const std::string& name, Better better) {
-  std::string text;
-  for (char c : html_escape(name)) text += c == '_' ? std::string("_<wbr>") : std::string(1, c);
+  std::string text = html_escape(column_label(name));
   if (better == Better::lower) text += " <span title=\"lower is better\">&darr;</span>";
+  if (better == Better::higher) text += " <span title=\"higher is better\">&uarr;</span>";
   return text;
 }
 
 void html_table(std::string& html, const ReportTable& table) {
   const auto& header = table.header;
   table_csv(header, table.rows, "HTML report table '" + table.title + "'");  // validates the widths with a clear error
-  const std::vector<Row> rows = align_decimals(table.rows);
+  const std::vector<Row> rows = align_decimals(with_column_decimals(header, table.rows));
   std::vector<bool> numeric(header.size(), true);
   for (const auto& r : rows) {
     for (size_t j = 0; j < r.size(); ++j) numeric[j] = numeric[j] && r[j].kind != Cell::Kind::text;

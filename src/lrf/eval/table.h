@@ -50,14 +50,24 @@ std::vector<Row> align_decimals(const std::vector<Row>& rows);
 // The cell as shown in markdown/HTML; `missing` for an empty cell.
 std::string display_text(const Cell& cell, const std::string& missing = "\u2013");
 
+// How a person reads a column of lrf's tables: its label with its unit ("PSNR dB" for psnr, "Δ PSNR dB"
+// for delta_psnr, "fit time s" for train_seconds; a key it does not know with spaces for underscores) and
+// the decimals its numbers are shown with (2 for PSNRs, 3 for SSIM, FLIP and LPIPS; -1: automatic).
+// CSV files keep the keys and full precision, for machines.
+std::string column_label(const std::string& key);
+int column_decimals(const std::string& key);
+// `rows` with each automatic number cell of a known column given that column's decimals.
+std::vector<Row> with_column_decimals(const std::vector<std::string>& header, const std::vector<Row>& rows);
+
 // RFC 4180 CSV: a header line, then one line per row; fields with commas, quotes or newlines are quoted.
 // Missing cells are empty. Throws lrf::Error naming `path` if a row's width differs from the header's.
 std::string table_csv(const std::vector<std::string>& header, const std::vector<Row>& rows,
                       const std::string& path = "");
 void write_table_csv(const std::string& path, const std::vector<std::string>& header, const std::vector<Row>& rows);
 
-// A GitHub-flavoured markdown table with padded columns; numeric columns are right-aligned with aligned
-// decimals (align_decimals), missing cells show "–", and `|` in text is escaped.
+// A GitHub-flavoured markdown table with padded columns, headed by column_label and numbers shown with
+// column_decimals; numeric columns are right-aligned with aligned decimals (align_decimals), missing cells
+// show "–", and `|` in text is escaped.
 std::string table_markdown(const std::vector<std::string>& header, const std::vector<Row>& rows,
                            const std::string& path = "");
 void write_table_markdown(const std::string& path, const std::vector<std::string>& header,

@@ -78,6 +78,14 @@ nlohmann::json evaluate_latent_run(const std::string& out, const LatentEvalOptio
     storage += double(fs::file_size((fs::path(out) / "lift.safetensors").string(), ec));
     metrics["feature_dim"] = run.lift.feature_dim();
   }
+  // A decoder the run made for itself (a refinement's) is part of what it takes to show a view; a shared
+  // or stock decoder is not counted, as the paper's table counts fields.
+  if (!decoder.empty() && fs::exists(decoder) &&
+      fs::weakly_canonical(fs::path(decoder)).parent_path() == fs::weakly_canonical(fs::path(out))) {
+    const double bytes = double(fs::file_size(decoder, ec));
+    storage += bytes;
+    metrics["decoder_mb"] = bytes / (1 << 20);
+  }
   metrics["storage_mb"] = storage / (1 << 20);
   write_latent_run_metrics(out, o, run.config, field_file, metrics);
   return metrics;

@@ -714,7 +714,9 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     mean_note += ".";
     log_info(mean_note);
   }
-  rows.insert(rows.end(), mean.rows.begin(), mean.rows.end());
+  // With one evaluation scene its mean is its own rows: shown once.
+  const bool several_scenes = eval_labels.size() > 1;
+  if (several_scenes) rows.insert(rows.end(), mean.rows.begin(), mean.rows.end());
   const std::vector<Better> better = {Better::none,   Better::none,  Better::higher, Better::higher, Better::higher,
                                       Better::higher, Better::lower, Better::lower,  Better::higher, Better::higher};
   write_table_csv(paths.output("ablation", "csv"), header, rows);
@@ -725,14 +727,16 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   spec.summary_better = better;
   ReportTable mean_table{mean_title, {header.begin() + 1, header.end()}, {}, {better.begin() + 1, better.end()}};
   for (const Row& r : mean.rows) mean_table.rows.push_back(Row(r.begin() + 1, r.end()));
-  spec.tables.push_back(mean_table);
+  if (several_scenes) spec.tables.push_back(mean_table);
   std::string train_list, eval_list;
   for (const auto& s : scenes.train) train_list += (train_list.empty() ? "" : ", ") + scenes.argument.at(s);
   for (const auto& s : scenes.eval) eval_list += (eval_list.empty() ? "" : ", ") + scenes.argument.at(s);
   spec.notes.push_back("Training scenes (Stage I and Stage III): " + train_list + ". Evaluation scenes (unseen by both): " +
-                       eval_list + ". Autoencoder " + o.autoencoder + "; every scene without a --downscale of its own "
-                       "downscaled so its longer side is at most " + std::to_string(o.max_side) + " px; latent fields "
-                       "of " + std::to_string(o.field_iters) + " iterations.");
+                       eval_list + ". Autoencoder " + o.autoencoder + "; " +
+                       (o.max_side > 0 ? "every scene without a --downscale of its own downscaled so its longer side "
+                                         "is at most " + std::to_string(o.max_side) + " px"
+                                       : std::string("every scene at its images' size unless it gives a --downscale")) +
+                       "; latent fields of " + std::to_string(o.field_iters) + " training steps.");
   if (!resolutions.empty()) spec.notes.push_back("Evaluated at: " + resolutions + ".");
   if (!mean_note.empty()) spec.notes.push_back(mean_note);
   if (o.eval_train_views > 0) {
@@ -747,7 +751,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                        "both+refine: those fields refined through their decoder against the scene's training images "
                        "(lrf refine: " + refine_description(o.refine) + "). Image-space baselines: rgb/8 and "
                        "rgb/8-mip = RGB 3DGS and Mip-Splatting trained at latent resolution (the paper's 3DGS/8 and "
-                       "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. delta_psnr is against the stock row.");
+                       "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. \u0394 PSNR is against the stock row.");
   const StageTimes times = stage_times_of(o, scenes, paths, train_fields);
   const ReportTable stage_times = times.table();
   write_table_csv(paths.output("stages", "csv"), stage_times.header, stage_times.rows);
