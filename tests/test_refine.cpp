@@ -127,6 +127,18 @@ std::string describe(const WindowCase& c) {
          std::to_string(c.w);
 }
 
+// Every window of kWindows against the whole decode of `z`, within these bounds.
+void expect_windows_within(lrf::TinyAutoencoder& ae, const at::Tensor& z, double value_max, double grad_max,
+                           double grad_rms) {
+  for (const WindowCase& c : kWindows) {
+    SCOPED_TRACE(describe(c));
+    const WindowDifference d = window_against_whole(ae, z, c);
+    EXPECT_LT(d.value_max, value_max);
+    EXPECT_LT(d.grad_max, grad_max);
+    EXPECT_LT(d.grad_rms, grad_rms);
+  }
+}
+
 }  // namespace
 
 // decode_local_window computes each layer only where the layers after it need it (tiny_window_decode.cpp):
@@ -140,12 +152,7 @@ TEST(DecoderSplit, WindowDecodeEqualsTheWholeDecodeAndItsGradient) {
   torch::manual_seed(5);
   lrf::TinyAutoencoder ae(8, true);
   const at::Tensor z = torch::randn({1, 8, 24, 28});
-  for (const WindowCase& c : kWindows) {
-    SCOPED_TRACE(describe(c));
-    const WindowDifference d = window_against_whole(ae, z, c);
-    EXPECT_LT(d.value_max, 2e-5);
-    EXPECT_LT(d.grad_max, 2e-5);
-  }
+  expect_windows_within(ae, z, 2e-5, 2e-5, 2e-5);
   // A window with less context than the decoder reaches on a side inside the image is refused.
   const at::Tensor f = ae.decode_global(z);
   EXPECT_NE(lrf::test::error_of([&] {
@@ -166,14 +173,7 @@ TEST(DecoderSplit, WindowDecodeOnTheWinogradPathMatchesWithinItsRounding) {
   if (!lrf::winograd_f32_enabled()) GTEST_SKIP() << "this CPU has no float32 Winograd path";
   torch::manual_seed(5);
   lrf::TinyAutoencoder ae(8, true);
-  const at::Tensor z = torch::randn({1, 8, 24, 28});
-  for (const WindowCase& c : kWindows) {
-    SCOPED_TRACE(describe(c));
-    const WindowDifference d = window_against_whole(ae, z, c);
-    EXPECT_LT(d.value_max, 1e-4);
-    EXPECT_LT(d.grad_rms, 2e-3);
-    EXPECT_LT(d.grad_max, 5e-3);
-  }
+  expect_windows_within(ae, torch::randn({1, 8, 24, 28}), 1e-4, 5e-3, 2e-3);
 }
 
 TEST(DecodedLoss, WindowsStayInsideAndTheLossComparesTheMatchingPixels) {

@@ -173,7 +173,8 @@ namespace {
 // Sends raw bytes to the server and returns what it answers (up to 4 KiB; "" when it closes). With
 // `close_write` the socket is half-closed after sending, which cpp-httplib sometimes answers by closing it
 // unanswered: a test that expects an answer sends "Connection: close" and keeps it open instead.
-std::string raw_exchange(int port, const std::string& bytes, bool close_write = true) {
+// A connection to the server on the loopback address (-1 when it cannot connect).
+int connect_to(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
@@ -181,8 +182,14 @@ std::string raw_exchange(int port, const std::string& bytes, bool close_write = 
   addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
     ::close(fd);
-    return "connect failed";
+    return -1;
   }
+  return fd;
+}
+
+std::string raw_exchange(int port, const std::string& bytes, bool close_write = true) {
+  const int fd = connect_to(port);
+  if (fd < 0) return "connect failed";
   timeval tv{10, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
   ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL);
@@ -326,19 +333,6 @@ TEST(ViewerServer, RefusesRepeatedHostHeaders) {
 }
 
 namespace {
-
-int connect_to(int port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_port = htons(static_cast<uint16_t>(port));
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
 
 // This process's resident memory, in MB (the server runs inside it).
 double resident_mb() {

@@ -7,7 +7,7 @@
 #include <tuple>
 #include <vector>
 
-#include "lrf/core/error.h"
+#include "lrf/scene/colmap_database.h"
 
 namespace lrf {
 namespace {
@@ -20,56 +20,6 @@ struct PairMatches {
   int64_t inliers;
 };
 
-class ReadOnlyDatabase {
- public:
-  explicit ReadOnlyDatabase(const std::string& path) : path_(path) {
-    if (sqlite3_open_v2(path.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-      const std::string message = db_ ? sqlite3_errmsg(db_) : "cannot open";
-      sqlite3_close(db_);
-      db_ = nullptr;
-      fail(path, "cannot open the COLMAP database: " + message);
-    }
-  }
-  ~ReadOnlyDatabase() { sqlite3_close(db_); }
-  ReadOnlyDatabase(const ReadOnlyDatabase&) = delete;
-  ReadOnlyDatabase& operator=(const ReadOnlyDatabase&) = delete;
-
-  std::map<int64_t, std::string> image_names() {
-    std::map<int64_t, std::string> names;
-    sqlite3_stmt* st = prepare("SELECT image_id, name FROM images");
-    while (sqlite3_step(st) == SQLITE_ROW) {
-      const auto* name = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
-      names[sqlite3_column_int64(st, 0)] = name ? name : "";
-    }
-    sqlite3_finalize(st);
-    return names;
-  }
-
-  // Verified matches per pair (the rows of two_view_geometries with a model, config > 0).
-  std::vector<PairMatches> verified_pairs() {
-    std::vector<PairMatches> pairs;
-    sqlite3_stmt* st = prepare("SELECT pair_id, rows, config FROM two_view_geometries");
-    while (sqlite3_step(st) == SQLITE_ROW) {
-      const int64_t id = sqlite3_column_int64(st, 0), rows = sqlite3_column_int64(st, 1);
-      if (sqlite3_column_int64(st, 2) <= 0) continue;
-      pairs.push_back({id / kMaxImageId, id % kMaxImageId, rows});
-    }
-    sqlite3_finalize(st);
-    return pairs;
-  }
-
- private:
-  sqlite3_stmt* prepare(const char* sql) {
-    sqlite3_stmt* st = nullptr;
-    if (sqlite3_prepare_v2(db_, sql, -1, &st, nullptr) != SQLITE_OK)
-      fail(path_, std::string("not a COLMAP database (") + sqlite3_errmsg(db_) + ")");
-    return st;
-  }
-
-  std::string path_;
-  sqlite3* db_ = nullptr;
-};
-
 std::string joined(const std::vector<std::string>& names, size_t at_most) {
   std::string out;
   for (size_t i = 0; i < names.size() && i < at_most; ++i) out += (i ? ", " : "") + names[i];
@@ -80,9 +30,18 @@ std::string joined(const std::vector<std::string>& names, size_t at_most) {
 }  // namespace
 
 std::string describe_matches(const std::string& database, int init_min_inliers) {
-  ReadOnlyDatabase db(database);
-  const auto names = db.image_names();
-  auto pairs = db.verified_pairs();
+  ColmapDatabase db(database, false);
+  std::map<int64_t, std::string> names;
+  db.each_row("SELECT image_id, name FROM images", [&](sqlite3_stmt* st) {
+    const auto* name = reinterpret_cast<const char*>(sqlite3_column_text(st, 1));
+    names[sqlite3_column_int64(st, 0)] = name ? name : "";
+  });
+  // Verified matches per pair: the rows of two_view_geometries with a model (config > 0).
+  std::vector<PairMatches> pairs;
+  db.each_row("SELECT pair_id, rows, config FROM two_view_geometries", [&](sqlite3_stmt* st) {
+    const int64_t id = sqlite3_column_int64(st, 0);
+    if (sqlite3_column_int64(st, 2) > 0) pairs.push_back({id / kMaxImageId, id % kMaxImageId, sqlite3_column_int64(st, 1)});
+  });
   std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
   std::map<int64_t, int> partners;  // photo -> photos it matched
   int matched = 0, strong = 0;
