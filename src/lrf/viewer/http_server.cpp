@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <condition_variable>
@@ -298,16 +299,28 @@ struct HttpServer::Impl {
     job_ready.notify_one();
   }
 
+  // Closes the connection nearest its deadline: the one idle longest, or the slowest to send its head.
+  void close_oldest() {
+    auto oldest = std::min_element(connections.begin(), connections.end(),
+                                   [](const auto& a, const auto& b) { return a.second.deadline < b.second.deadline; });
+    if (oldest != connections.end()) close_connection(oldest->first);
+  }
+
   void accept_all() {
+    bool made_room = false;
     for (;;) {
       const int fd = ::accept4(listen_fd, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
-      if (fd < 0) return;
-      if (connections.size() >= limits.max_connections) {
-        // Room is made by closing the connection closest to its deadline: idle longest or slowest.
-        auto oldest = std::min_element(connections.begin(), connections.end(),
-                                       [](const auto& a, const auto& b) { return a.second.deadline < b.second.deadline; });
-        if (oldest != connections.end()) close_connection(oldest->first);
+      if (fd < 0) {
+        // Out of descriptors (a low `ulimit -n`): a waiting connection gives its up, once per round, so
+        // that a page's request is not locked out by idle ones.
+        if ((errno == EMFILE || errno == ENFILE) && !made_room && !connections.empty()) {
+          close_oldest();
+          made_room = true;
+          continue;
+        }
+        return;
       }
+      if (connections.size() >= limits.max_connections) close_oldest();
       connections[fd].deadline = Clock::now() + std::chrono::milliseconds(limits.idle_timeout_ms);
     }
   }
