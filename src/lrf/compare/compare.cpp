@@ -438,7 +438,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
                        std::to_string(c0.width) + "x" + std::to_string(c0.height) + " (latent " +
                        std::to_string(c0.width / 8) + "x" + std::to_string(c0.height / 8) + "), " +
                        std::to_string(o.iters) + " training steps." + method_notes(o));
-  spec.notes.push_back("train_seconds is the wall time of everything a row needs: the fit, and for the latent rows "
+  spec.notes.push_back("Fit time is the wall time of everything a row needs: the fit, and for the latent rows "
                        "also the encoding of the training views (as long as reading them from the latent cache took, "
                        "when they were cached), for latent-refined also its refinement.");
   if (std::find(o.methods.begin(), o.methods.end(), "latent-nerf") != o.methods.end())
