@@ -71,6 +71,10 @@ std::string describe_matches(const std::string& database, int init_min_inliers) 
                      std::to_string(pairs[i].inliers) + ")");
     out += "\nBest pairs: " + joined(best, 3) + ".";
   }
+  if (strong > 0)
+    out += "\nThe mapper starts from such a pair only if its two views are also far enough apart (an angle of "
+           "several degrees at the points they share) and grows the model from photos that connect to it: " +
+           std::string(strong <= 2 ? "with so few strong pairs, too few did." : "here too few did.");
   if (!alone.empty())
     out += "\n" + std::to_string(alone.size()) + " photo" + (alone.size() == 1 ? " matches" : "s match") +
            " no other: " + joined(alone, 8) + ".";
