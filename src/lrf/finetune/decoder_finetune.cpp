@@ -11,12 +11,12 @@
 
 #include "lrf/autoencoder/autoencoder.h"
 #include "lrf/autoencoder/image_tensor.h"
-#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/seed_stream.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/finetune_output.h"
 #include "lrf/latent/latent_cache.h"

@@ -9,12 +9,12 @@
 
 #include "lrf/align/correspondence_loss.h"
 #include "lrf/autoencoder/kl_vae.h"
-#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/seed_stream.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/finetune/finetune_output.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/optim/param_adam.h"

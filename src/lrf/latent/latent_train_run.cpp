@@ -3,12 +3,12 @@
 
 #include <torch/torch.h>
 
-#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/feature/feature_training.h"
 #include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"

@@ -6,7 +6,6 @@
 
 #include <torch/torch.h>
 
-#include "lrf/core/training_steps.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
@@ -15,6 +14,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/core/run_loop.h"
 #include "lrf/core/train_log.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"

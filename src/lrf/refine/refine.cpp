@@ -11,7 +11,6 @@
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/image_tensor.h"
-#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
@@ -19,6 +18,7 @@
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/seed_stream.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"

@@ -4,13 +4,13 @@
 
 #include <torch/torch.h>
 
-#include "lrf/core/training_steps.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
 #include "lrf/core/resources.h"
 #include "lrf/core/run_info.h"
+#include "lrf/core/training_steps.h"
 #include "lrf/rgb/rgb_field.h"
 #include "lrf/run/field_kind.h"
 #include "lrf/splat/run/run_config.h"

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 #include <map>
-#include <tuple>
+#include <set>
 #include <vector>
 
 #include "lrf/scene/colmap_database.h"
@@ -43,14 +43,14 @@ std::string describe_matches(const std::string& database, int init_min_inliers) 
     if (sqlite3_column_int64(st, 2) > 0) pairs.push_back({id / kMaxImageId, id % kMaxImageId, sqlite3_column_int64(st, 1)});
   });
   std::sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.inliers > b.inliers; });
-  std::map<int64_t, int> partners;  // photo -> photos it matched
+  std::set<int64_t> matched_photos;
   int matched = 0, strong = 0;
   for (const auto& p : pairs) {
     if (p.inliers < kMatchedPairMinInliers) continue;
     ++matched;
     strong += p.inliers >= init_min_inliers;
-    ++partners[p.first];
-    ++partners[p.second];
+    matched_photos.insert(p.first);
+    matched_photos.insert(p.second);
   }
   const auto name_of = [&](int64_t id) {
     const auto it = names.find(id);
@@ -58,7 +58,7 @@ std::string describe_matches(const std::string& database, int init_min_inliers) 
   };
   std::vector<std::string> alone;
   for (const auto& [id, name] : names)
-    if (!partners.count(id)) alone.push_back(name);
+    if (!matched_photos.count(id)) alone.push_back(name);
   const size_t n = names.size();
   std::string out = "What the matcher found: of the " + std::to_string(n * (n - 1) / 2) + " pairs of the " +
                     std::to_string(n) + " photos, " + std::to_string(matched) + " share at least " +
