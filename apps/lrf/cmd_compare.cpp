@@ -5,6 +5,7 @@
 
 #include "autoencoder_option.h"
 #include "command.h"
+#include "detail_options.h"
 #include "preset_option.h"
 #include "refine_options.h"
 #include "init_points_options.h"
@@ -47,11 +48,14 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "Methods to run: rgb, rgb-mip (full resolution, without / with Mip-Splatting's filters), rgb/8, "
                   "rgb/8-mip (RGB fields on 8x downscaled views), latent, "
                   "latent-refined (the latent field refined through the decoder against the training images), "
+                  "latent-refined+detail (that field's frames with the detail pass: the nearest training photographs "
+                  "carried into each view with the field's depth, blended in where they agree; --detail-*), "
                   "latent-nerf (a hash-grid NeRF fitted to the same latents by volume rendering: Latent-NeRF*), "
                   "feature-gs (Feature 3DGS's idea: a low-dimensional feature field lifted to the latent by a 1x1 "
                   "convolution trained with it)")
       ->capture_default_str();
   lrf::cli::add_refine_options(cmd, &o->refine, "latent-refined");
+  lrf::cli::add_detail_options(cmd, &o->detail);
   cmd->add_option("--feature-dim", o->feature_dim,
                   "feature-gs: features per Gaussian (0: Feature 3DGS's default, half the latent channels, 16 for TAEF2)")
       ->check(CLI::Range(0, lrf::kMaxFeatureDim))

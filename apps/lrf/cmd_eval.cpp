@@ -6,11 +6,13 @@
 #include <string>
 
 #include "command.h"
+#include "detail_options.h"
 #include "next_steps.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/detail/detail_eval.h"
 #include "lrf/rgb/rgb_eval.h"
 #include "lrf/run/field_kind.h"
 #include "lrf/splat/run/render_size.h"
@@ -26,6 +28,8 @@ struct EvalOptions {
   std::string decoder;
   std::string lpips_weights;
   bool json = false;
+  bool detail = false;
+  lrf::detail::DetailOptions detail_options;
 };
 
 // "0.542" for a number, "-" for null (a metric that could not be computed).
@@ -80,8 +84,29 @@ int run_eval_latent(const EvalOptions& o, bool nerf) {
   return 0;
 }
 
+// The field's test views with the detail pass, scored frame by frame into OUT/detail/ (metrics.json and
+// eval/*.png) so that the field's own metrics.json stays as it was.
+int run_eval_detail(const EvalOptions& o) {
+  using namespace lrf;
+  if (o.scale != 1.0) fail_usage("--scale does not apply with --detail: frames are scored at the field's resolution");
+  const std::string dir = (fs::path(o.out) / "detail").string();
+  lrf::detail::DetailEvalOptions d;
+  d.decoder = o.decoder;
+  d.lpips_weights = o.lpips_weights;
+  d.detail = o.detail_options;
+  const nlohmann::json m = lrf::detail::evaluate_with_detail(o.out, dir, d);
+  nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
+                          {"lpips", m["lpips"]}, {"frame_fps", m["frame_fps"]}, {"detail_ms", m["detail_ms"]},
+                          {"views", m["views"].size()}};
+  EvalOptions shown = o;
+  shown.out = dir;
+  report(shown, brief, false);
+  return 0;
+}
+
 int run_eval(const EvalOptions& o) {
   using namespace lrf;
+  if (o.detail) return run_eval_detail(o);
   splat::check_render_options(o.scale, 0, 0);
   const auto kind = field_kind_of(o.out);
   if (kind == FieldKind::latent_nerf) return run_eval_latent(o, true);
@@ -113,6 +138,10 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
   cmd->add_flag("--json", o->json,
                 "Print the scores as one JSON line (psnr, ssim, ms_ssim, flip, lpips, views; roundtrip_psnr and "
                 "latent_psnr for latent fields, render_fps for RGB ones) instead of the summary");
+  cmd->add_flag("--detail", o->detail,
+                "Score the field with the detail pass (training photographs carried into each test view with the "
+                "field's depth and blended in where they agree), into OUT/detail/ (splat fields)");
+  lrf::cli::add_detail_options(cmd, &o->detail_options);
   lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o] { return run_eval(*o); });
 });

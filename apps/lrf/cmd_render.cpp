@@ -6,8 +6,10 @@
 #include <memory>
 
 #include "command.h"
+#include "detail_options.h"
 #include "lrf/autoencoder/image_tensor.h"
 #include "lrf/camera_path/camera_path.h"
+#include "lrf/detail/detail_frames.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/run/field_kind.h"
 #include "lrf/video/path_video.h"
@@ -42,13 +44,16 @@ struct RenderOptions {
   int frames = 120;
   double fps = 30;
   bool frames_given = false, fps_given = false;
+  bool detail = false, stability = false;
+  lrf::detail::DetailOptions detail_options;
 };
 
 // --path: the scene's camera path rendered into an MP4 (and PNG frames with --frames-dir).
 int run_render_path(const RenderOptions& o) {
   using namespace lrf;
   if (o.split_given) fail_usage("--split chooses the scene's views; a --path video has its own cameras");
-  auto frames = FieldFrames::open(o.out, o.decoder);
+  std::unique_ptr<FieldFrames> frames = FieldFrames::open(o.out, o.decoder);
+  if (o.detail) frames = std::make_unique<lrf::detail::DetailFrames>(std::move(frames), o.detail_options);
   if (frames->latent() && (o.scale != 1.0 || o.width > 0))
     fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and decode at 8x");
   const auto kind = camera_path::parse_path_kind(o.path);
@@ -62,6 +67,7 @@ int run_render_path(const RenderOptions& o) {
   vo.video = o.video;
   vo.frames_dir = o.frames_dir;
   vo.fps = o.fps;
+  vo.stability = o.stability;
   if (vo.video.empty() && vo.frames_dir.empty()) {
     vo.video = (fs::path(o.out) / "renders" / (o.path + ".mp4")).string();
     fs::create_directories(fs::path(vo.video).parent_path());
@@ -74,6 +80,19 @@ int run_render_path(const RenderOptions& o) {
                 r.frames, path.front().width, path.front().height, r.seconds, double(r.frames) / r.seconds,
                 1000.0 * r.render_seconds / double(r.frames), 1000.0 * r.decode_seconds / double(r.frames));
   log_info(line);
+  if (o.detail) {
+    std::snprintf(line, sizeof line, "detail pass %.1f ms per frame, borrowing from %zu training views",
+                  1000.0 * r.detail_seconds / double(r.frames),
+                  static_cast<const lrf::detail::DetailFrames&>(*frames).borrowed_views().size());
+    log_info(line);
+  }
+  if (o.stability) {
+    std::snprintf(line, sizeof line,
+                  "stability: consecutive frames differ by %.2f of 255 on average after the field's depth carries "
+                  "one onto the next (lower is steadier)", r.warp_error);
+    log_info(line);
+    std::printf("{\"warp_error\": %.4f, \"frames\": %ld}\n", r.warp_error, r.frames);
+  }
   if (!vo.video.empty()) {
     std::snprintf(line, sizeof line, "%g", o.fps);
     log_info("wrote " + vo.video + " (" + r.codec + ", " + line + " fps)");
@@ -111,8 +130,9 @@ int run_render(const RenderOptions& o) {
   using namespace lrf::splat;
   check_render_options(o.scale, o.width, o.height);  // before the field is even opened
   if (!o.path.empty()) return run_render_path(o);
-  if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given)
-    fail_usage("--video, --frames-dir, --frames and --fps go with --path");
+  if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given || o.stability)
+    fail_usage("--video, --frames-dir, --frames, --fps and --stability go with --path");
+  if (o.detail) fail_usage("--detail goes with --path (lrf eval --detail scores the scene's test views with it)");
   const auto kind = field_kind_of(o.out);
   const bool nerf_field = kind == FieldKind::latent_nerf;
   const bool latent = kind == FieldKind::latent;
@@ -193,6 +213,13 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   cmd->add_option("--video", o->video, "--path: the MP4 file to write (H.264; default OUT/renders/PATH.mp4 unless "
                   "--frames-dir is given)");
   cmd->add_option("--frames-dir", o->frames_dir, "--path: also (or only) write the frames as PNG files into this folder");
+  cmd->add_flag("--detail", o->detail,
+                "--path: the detail pass on every frame (the nearest training photographs carried into it with the "
+                "field's depth and blended in where they agree; splat fields)");
+  lrf::cli::add_detail_options(cmd, &o->detail_options);
+  cmd->add_flag("--stability", o->stability,
+                "--path: measure frame-to-frame stability (the mean difference of consecutive frames after the "
+                "field's depth carries one onto the next, in 8-bit levels), printed as JSON too; splat fields");
   lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o, split, frames, fps] {
     o->split_given = split->count() > 0;

@@ -8,8 +8,10 @@
 #include <thread>
 
 #include "command.h"
+#include "detail_options.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/detail/detail_frames.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/viewer/viewer_server.h"
 #include "scene_override_option.h"
@@ -19,6 +21,8 @@ namespace {
 struct ServeCliOptions {
   std::string run, decoder;
   lrf::viewer::ServeOptions server;
+  bool detail = false;
+  lrf::detail::DetailOptions detail_options;
 };
 
 volatile std::sig_atomic_t g_stop = 0;
@@ -26,7 +30,8 @@ void on_signal(int) { g_stop = 1; }
 
 int run_serve(const ServeCliOptions& o) {
   using namespace lrf;
-  auto frames = FieldFrames::open(o.run, o.decoder);
+  std::unique_ptr<FieldFrames> frames = FieldFrames::open(o.run, o.decoder);
+  if (o.detail) frames = std::make_unique<lrf::detail::DetailFrames>(std::move(frames), o.detail_options);
   log_info(frames->describe());
   if (!viewer::is_loopback_host(o.server.host))
     log_warn("serving on " + o.server.host + ": anyone who can reach this address can look at the field "
@@ -58,6 +63,10 @@ lrf::cli::CommandRegistration reg(24, [](CLI::App& root) {
                   "Another address exposes the field to the network")->capture_default_str();
   cmd->add_option("--decoder", o->decoder, "Latent fields and latent NeRFs: decode with these decoder weights (e.g. Stage III's; default: the "
                   "decoder a refined field was fitted through, else the autoencoder's)");
+  cmd->add_flag("--detail", o->detail,
+                "Show frames with the detail pass (the nearest training photographs carried into each frame with the "
+                "field's depth and blended in where they agree; splat fields)");
+  lrf::cli::add_detail_options(cmd, &o->detail_options);
   cmd->add_option("--max-side", o->server.max_side, "Largest frame width or height a page may ask for")->capture_default_str();
   cmd->add_option("--jpeg-quality", o->server.jpeg_quality, "JPEG quality of the frames (1..100)")
       ->capture_default_str()->check(CLI::Range(1, 100));

@@ -11,6 +11,7 @@
 #include "lrf/compare/compare_methods.h"
 #include "lrf/compare/compare_plan.h"
 #include "lrf/core/error.h"
+#include "lrf/detail/detail_eval.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
@@ -116,6 +117,10 @@ std::string fitted_to(const std::string& method, const std::string& dir, const C
   const std::string eighth = std::to_string(camera.width / 8) + "x" + std::to_string(camera.height / 8);
   const CompareMethod& m = compare_method(method);
   if (m.job == CompareJob::rgb_field) return (m.rgb_factor == 1 ? full : eighth) + " RGB";
+  if (m.detail) {
+    return fitted_to("latent-refined", (fs::path(dir).parent_path() / method_dir("latent-refined")).string(), camera) +
+           ", with the training photographs";
+  }
   std::string channels = "?";
   const fs::path config = fs::path(dir) / "config.json";
   if (fs::exists(config)) {
@@ -145,6 +150,10 @@ std::string method_notes(const CompareOptions& o) {
       {"latent", "latent: a latent field with the " + o.autoencoder + " autoencoder, decoded (the paper's 3DGS-VAE)."},
       {"latent-refined", "latent-refined: the latent field refined through the decoder against the training "
                          "images (lrf refine: " + refine_description(o.refine) + ")."},
+      {"latent-refined+detail", "latent-refined+detail: latent-refined's frames with the detail pass: the " +
+                                    std::to_string(o.detail.views) + " nearest training photographs carried into "
+                                    "each view with the field's depth and blended in where they agree with it and "
+                                    "with one another (docs/detail.md)."},
       {"feature-gs", "feature-gs: the Feature-GS baseline (Feature 3DGS's speed-up module): Gaussians carrying " +
                          (o.feature_dim > 0 ? std::to_string(o.feature_dim) + " features"
                                             : std::string("half as many features as the latent has channels")) +
@@ -158,15 +167,17 @@ std::string method_notes(const CompareOptions& o) {
   return text;
 }
 
-// Frames per second of a whole view: the field's render, then, for a latent row, the decoder's pass. This
-// is the rate to compare across rows; a latent row's render rate alone "won" while its view needed the
-// decoder at 4.6 fps.
+// Frames per second of a whole view: the field's render, then, for a latent row, the decoder's pass, and
+// for a row with the detail pass, that pass. This is the rate to compare across rows; a latent row's render
+// rate alone "won" while its view needed the decoder at 4.6 fps.
 Cell view_fps(const nlohmann::json& m) {
   const Cell render = Cell::number_in(m, "render_fps"), decode = Cell::number_in(m, "decode_fps");
   if (render.missing() || !(render.number > 0)) return Cell();
-  if (decode.missing()) return render;
+  const Cell detail = Cell::number_in(m, "detail_ms");
+  const double detail_seconds = detail.missing() ? 0.0 : detail.number / 1000.0;
+  if (decode.missing()) return Cell(1.0 / (1.0 / render.number + detail_seconds));
   if (!(decode.number > 0)) return Cell();
-  return Cell(1.0 / (1.0 / render.number + 1.0 / decode.number));
+  return Cell(1.0 / (1.0 / render.number + 1.0 / decode.number + detail_seconds));
 }
 
 // The paper's efficiency table (training time, memory, storage, render and decode speed) for these methods
@@ -313,17 +324,35 @@ nlohmann::json run_compare(const CompareOptions& o) {
     // The refined field is brought up to date first: a finished one is reused only if made with the refine
     // options asked for now (refine_folder.h), so that its row cannot pass for another setting's.
     bool refined_now = false;
+    // latent-refined+detail scores latent-refined's field: one refinement serves both rows.
+    const std::string refined_dir = (fs::path(o.out) / method_dir("latent-refined")).string();
     if (m.job == CompareJob::refined_latent) {
       ensure_latent_field();
       RefineOptions r = o.refine;
       r.run = latent_dir;
-      r.out = dir;
+      r.out = refined_dir;
       r.decoder = o.decoder;
       r.seed = o.seed;
       r.cache_dir = o.cache_dir;
       // A refinement of an older latent field (or any, with --force) is made again from the start.
       refined_now = ensure_refined_field(r, "the latent-refined field", "use another output folder, or --force",
                                          o.force || latent_fresh);
+    }
+    // The detail pass has no field of its own and takes seconds: it is scored again every time, with the
+    // options asked for now.
+    if (m.detail) {
+      const std::string refined_metrics = (fs::path(refined_dir) / "metrics.json").string();
+      if (refined_now || !fs::exists(refined_metrics)) {
+        LatentEvalOptions le;
+        le.lpips_weights = o.lpips_weights;
+        evaluate_latent_run(refined_dir, le);
+      }
+      const nlohmann::json base = read_json_file(refined_metrics);
+      detail::DetailEvalOptions d;
+      d.lpips_weights = o.lpips_weights;
+      d.detail = o.detail;
+      all[method] = detail::evaluate_with_detail(refined_dir, dir, d, &base);
+      continue;
     }
     // Scores of an interrupted run (a checkpoint's point_cloud.ply) are not reused: the run is finished first.
     if (!o.force && !refined_now && fs::exists(metrics_path) && finished(method, dir)) {

@@ -10,6 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/detail/detail_blend.h"
 #include "lrf/points/initial_points.h"
 #include "lrf/refine/refine.h"
 #include "lrf/scene/scene.h"
@@ -27,6 +28,7 @@ struct CompareOptions {
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
   InitPointsOptions init_points;  // every method starts from the same points
   RefineOptions refine;  // latent-refined: steps, crop, learning rates (run, out, decoder, seed are set here)
+  detail::DetailOptions detail;  // latent-refined+detail: the detail pass on latent-refined's field
   int feature_dim = 0;   // feature-gs: features per Gaussian (0 = Feature 3DGS's default, half the latent channels)
   // Quality curves of other runs ("NAME=CSV", a curve.csv of lrf refine --score-every) drawn in the report
   // beside the latent-refined row's own (with --refine-score-every).
@@ -35,7 +37,7 @@ struct CompareOptions {
 };
 
 // Every method compare knows: rgb and rgb-mip (full resolution), rgb/8, rgb/8-mip, latent, latent-refined,
-// latent-nerf, feature-gs (a feature field lifted to the latent by a 1x1 convolution, after Feature 3DGS).
+// latent-refined+detail (that field's frames with the detail pass), latent-nerf, feature-gs (a feature field lifted to the latent by a 1x1 convolution, after Feature 3DGS).
 const std::vector<std::string>& compare_methods();
 
 // Runs (or reuses) every method and writes OUT/table.csv, OUT/table.md and OUT/report.html.

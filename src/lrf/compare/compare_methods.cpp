@@ -12,6 +12,7 @@ const std::vector<CompareMethod>& compare_method_table() {
       {"rgb/8-mip", CompareJob::rgb_field, FieldKind::rgb, 8, true},
       {"latent", CompareJob::latent_field, FieldKind::latent},
       {"latent-refined", CompareJob::refined_latent, FieldKind::latent},
+      {"latent-refined+detail", CompareJob::refined_latent, FieldKind::latent, 0, false, true},
       {"latent-nerf", CompareJob::latent_nerf, FieldKind::latent_nerf},
       {"feature-gs", CompareJob::feature_field, FieldKind::latent},
   };

@@ -23,10 +23,11 @@ struct CompareMethod {
   FieldKind kind;     // of the folder it leaves
   int rgb_factor = 0; // rgb_field: the views reduced by this factor (1: full resolution)
   bool mip = false;   // rgb_field: Mip-Splatting's filters
+  bool detail = false;  // refined_latent: scored with the detail pass (detail/), on latent-refined's field
 };
 
 // Every method, in the order the help lists them: rgb, rgb-mip, rgb/8, rgb/8-mip, latent, latent-refined,
-// latent-nerf, feature-gs.
+// latent-refined+detail, latent-nerf, feature-gs.
 const std::vector<CompareMethod>& compare_method_table();
 // The method called `name`; throws lrf::Error naming it and the choices otherwise.
 const CompareMethod& compare_method(const std::string& name);

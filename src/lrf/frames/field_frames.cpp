@@ -26,6 +26,23 @@ void check_size(const Camera& camera, int multiple) {
          " is not a positive multiple of " + std::to_string(multiple));
 }
 
+// Depth of a splat field: its Gaussians rendered with a single zero feature, since only the opacity-weighted
+// depth and the coverage are read.
+cv::Mat splat_depth(const splat::Gaussians& field, const splat::FieldRenderOptions& render, const Camera& camera) {
+  apply_thread_count_to_this_thread();
+  torch::NoGradGuard no_grad;
+  splat::Gaussians shape{field.means, field.log_scales, field.quats, field.opacity_logits,
+                         torch::zeros({field.size(), 1, 1}, torch::kFloat32), 0};
+  splat::FieldRenderOptions options = render;
+  options.sh_degree = 0;
+  options.background = torch::zeros({1}, torch::kFloat32);
+  const auto out = splat::render_field(shape, camera, options);
+  const auto covered = out.alpha[0] > 0.5;
+  const auto depth = torch::where(covered, out.depth[0] / out.alpha[0].clamp_min(1e-6), torch::zeros_like(out.depth[0]))
+                         .contiguous();
+  return cv::Mat(camera.height, camera.width, CV_32F, depth.data_ptr<float>()).clone();
+}
+
 class RgbFrames : public FieldFrames {
  public:
   explicit RgbFrames(const std::string& run) : run_(splat::open_field_run(run)) {}
@@ -43,9 +60,10 @@ class RgbFrames : public FieldFrames {
     const auto t0 = Clock::now();
     auto image = splat::render_field(run_.field, camera, run_.render).image.clamp(0, 1);
     cv::Mat frame = to_u8(tensor_to_image(image));
-    if (timing) *timing = {ms_since(t0), 0.0};
+    if (timing) *timing = {ms_since(t0), 0.0, 0.0};
     return frame;
   }
+  cv::Mat depth(const Camera& camera) override { return splat_depth(run_.field, run_.render, camera); }
 
  private:
   splat::FieldRun run_;
@@ -64,7 +82,7 @@ cv::Mat decoded_frame(const Camera& camera, Autoencoder& ae, const LatentRange& 
   const double render_ms = ms_since(t0);
   const auto t1 = Clock::now();
   cv::Mat frame = to_u8(tensor_to_image(decode_normalised(ae, range, zn)));
-  if (timing) *timing = {render_ms, ms_since(t1)};
+  if (timing) *timing = {render_ms, ms_since(t1), 0.0};
   return frame;
 }
 
@@ -90,6 +108,7 @@ class LatentFrames : public FieldFrames {
     // A feature field's features are lifted to latents.
     return decoded_frame(camera, *ae_, run_.range, [&](const Camera& c) { return render_latent_at(run_, c); }, timing);
   }
+  cv::Mat depth(const Camera& camera) override { return splat_depth(run_.field, run_.render, camera); }
 
  private:
   LatentRun run_;
@@ -115,6 +134,9 @@ class NerfFrames : public FieldFrames {
   cv::Mat render(const Camera& camera, FrameTiming* timing) override {
     return decoded_frame(camera, *ae_, run_.range, [&](const Camera& c) { return nerf::render_view(run_.field, c); },
                          timing);
+  }
+  cv::Mat depth(const Camera&) override {
+    fail(run_.out, "a latent NeRF renders no depth map here; the detail pass needs a splat field");
   }
 
  private:

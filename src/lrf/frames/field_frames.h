@@ -17,6 +17,7 @@ namespace lrf {
 struct FrameTiming {
   double render_ms = 0;  // splatting
   double decode_ms = 0;  // latent fields: the decoder (0 for RGB fields)
+  double detail_ms = 0;  // the detail pass, when one is applied (detail/detail_frames.h)
 };
 
 class FieldFrames {
@@ -39,6 +40,11 @@ class FieldFrames {
   // The frame `camera` sees, as 8-bit RGB (CV_8UC3), camera.width x camera.height. Not thread-safe:
   // callers serialise (rendering and decoding use every worker thread anyway).
   virtual cv::Mat render(const Camera& camera, FrameTiming* timing = nullptr) = 0;
+  // The field's surface as `camera` sees it, at the camera's own size: camera-space z per pixel (CV_32F),
+  // the opacity-weighted mean depth of the Gaussians a pixel's ray meets, 0 where they cover less than half
+  // of it. Splat fields only (a latent NeRF throws lrf::Error): the Gaussians are 3D, so their depth is sharp
+  // at any resolution even when their features were fitted at latent resolution.
+  virtual cv::Mat depth(const Camera& camera) = 0;
 };
 
 }  // namespace lrf

@@ -8,6 +8,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/progress.h"
+#include "lrf/detail/frame_stability.h"
 #include "lrf/video/mp4_writer.h"
 
 namespace fs = std::filesystem;
@@ -26,12 +27,15 @@ PathVideoResult render_path_video(FieldFrames& frames, const std::vector<Camera>
   if (!o.video.empty()) writer = std::make_unique<Mp4Writer>(o.video, width, height, o.fps);
   if (!o.frames_dir.empty()) fs::create_directories(o.frames_dir);
   PathVideoResult result;
+  detail::FrameStability stability;
   Progress progress("video", static_cast<long>(path.size()));
   for (size_t k = 0; k < path.size(); ++k) {
     FrameTiming timing;
     const cv::Mat frame = frames.render(path[k], &timing);
     result.render_seconds += timing.render_ms / 1000.0;
     result.decode_seconds += timing.decode_ms / 1000.0;
+    result.detail_seconds += timing.detail_ms / 1000.0;
+    if (o.stability) stability.add(frame, frames.depth(path[k]), path[k]);
     if (writer) writer->write(frame);
     if (!o.frames_dir.empty()) {
       char name[32];
@@ -45,6 +49,7 @@ PathVideoResult render_path_video(FieldFrames& frames, const std::vector<Camera>
     result.codec = writer->codec();
   }
   result.frames = static_cast<long>(path.size());
+  if (o.stability) result.warp_error = stability.mean_warp_error();
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   progress.finish({{"fps", double(result.frames) / result.seconds}});
   return result;

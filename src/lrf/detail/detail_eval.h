@@ -1,0 +1,28 @@
+#pragma once
+// Scoring a field with the detail pass: what `lrf eval --detail` and the latent-refined+detail row of
+// lrf compare write alike.
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "lrf/detail/detail_blend.h"
+
+namespace lrf::detail {
+
+struct DetailEvalOptions {
+  std::string decoder;        // decoder override for a latent field ("" = the run's own)
+  std::string lpips_weights;  // "" = no LPIPS
+  DetailOptions detail;
+};
+
+// Scores RUN's test views with the detail pass, writes the frames to RESULT_DIR/eval/*.png and the scores
+// to RESULT_DIR/metrics.json, and returns them: the means, each view's scores, the time per frame in its
+// parts (render_fps, decode_fps, detail_ms), "depth_maps_seconds" (the field's depth from each borrowed
+// training camera, made once per scene), the training views borrowed ("borrowed_views"), the options, and
+// the photographs' storage ("photographs_mb"). `base_metrics` (RUN's own metrics.json, may be null) gives
+// the field's cost (train_seconds, peak_memory_mb, gaussians, storage_mb, to which the photographs are
+// added). Throws lrf::Error naming the folder for a latent NeRF or a run without training views.
+nlohmann::json evaluate_with_detail(const std::string& run, const std::string& result_dir,
+                                    const DetailEvalOptions& options, const nlohmann::json* base_metrics = nullptr);
+
+}  // namespace lrf::detail

@@ -1,0 +1,46 @@
+#pragma once
+// A field's frames with detail borrowed from its training photographs (lrf's detail pass): each frame is
+// rendered and decoded as usual, then the nearest training photographs are carried into its camera with
+// the field's own depth and blended in where they agree with it (detail_blend.h).
+#include <memory>
+#include <set>
+
+#include "lrf/detail/detail_blend.h"
+#include "lrf/frames/field_frames.h"
+
+namespace lrf::detail {
+
+class DetailFrames : public FieldFrames {
+ public:
+  // Throws lrf::Error when `frames` is a latent NeRF (no depth) or its scene has no training views.
+  DetailFrames(std::unique_ptr<FieldFrames> frames, const DetailOptions& options);
+
+  FieldKind kind() const override { return frames_->kind(); }
+  const Scene& scene() const override { return frames_->scene(); }
+  int size_multiple() const override { return frames_->size_multiple(); }
+  std::string describe() const override;
+  // timing->detail_ms holds the pass's own time (depth maps, warps, blend).
+  cv::Mat render(const Camera& camera, FrameTiming* timing = nullptr) override;
+  cv::Mat depth(const Camera& camera) override { return frames_->depth(camera); }
+
+  // Every training view (index into scene().views) a frame has borrowed from so far.
+  const std::set<int>& borrowed_views() const { return borrowed_; }
+  // Seconds spent loading the borrowed photographs and rendering the field's depth from their cameras (once
+  // per view and scene).
+  double source_seconds() const { return source_seconds_; }
+
+ private:
+  struct Source {
+    cv::Mat image;  // CV_32FC3 at the view's camera
+    cv::Mat depth;  // the field's depth from that camera
+  };
+  const Source& source(int view);
+
+  std::unique_ptr<FieldFrames> frames_;
+  DetailOptions options_;
+  std::vector<std::unique_ptr<Source>> sources_;  // by view index, loaded on first use
+  std::set<int> borrowed_;
+  double source_seconds_ = 0;
+};
+
+}  // namespace lrf::detail

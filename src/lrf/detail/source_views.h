@@ -1,0 +1,15 @@
+#pragma once
+// Which training photographs a novel view borrows from: the ones whose cameras stand nearest to it and
+// look the most alike, as image-based rendering picks them.
+#include <vector>
+
+#include "lrf/scene/scene.h"
+
+namespace lrf::detail {
+
+// Up to `count` of the scene's training views (indices into scene.views, never a test view), nearest
+// first by the distance of the camera centres in units of the scene extent plus (1 - cos) of the angle
+// between the viewing directions.
+std::vector<int> nearest_training_views(const Scene& scene, const Camera& camera, int count);
+
+}  // namespace lrf::detail
