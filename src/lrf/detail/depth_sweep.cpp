@@ -19,35 +19,13 @@ cv::Mat sweep_depth(const cv::Mat& depth, const Camera& target, const std::vecto
   for (int s = 0; s < options.steps; ++s) {
     const double offset = options.range * (2.0 * s / (options.steps - 1) - 1.0);
     const cv::Mat shifted = depth * (1.0 + offset);
-    // Per pixel: the sum over valid photographs of colour and squared colour, and their count; the
-    // disagreement is the variance of the photographs' colours, averaged over the window.
-    cv::Mat sum(size, CV_32FC3, cv::Scalar::all(0)), square(size, CV_32FC3, cv::Scalar::all(0));
-    cv::Mat count(size, CV_32F, cv::Scalar(0));
-    for (const auto& source : sources) {
-      const WarpedView w =
-          warp_view(*source.image, *source.depth, *source.camera, shifted, target, options.occlusion_tolerance);
-      sum += w.image;
-      square += w.image.mul(w.image);
-      count += w.valid;
-    }
-    cv::Mat variance(size, CV_32F), seen(size, CV_32F);
-    for (int i = 0; i < size.height; ++i) {
-      const cv::Vec3f* m = sum.ptr<cv::Vec3f>(i);
-      const cv::Vec3f* q = square.ptr<cv::Vec3f>(i);
-      const float* n = count.ptr<float>(i);
-      float* v = variance.ptr<float>(i);
-      float* ok = seen.ptr<float>(i);
-      for (int j = 0; j < size.width; ++j) {
-        ok[j] = n[j] >= 2 ? 1.0f : 0.0f;
-        if (n[j] < 2) {
-          v[j] = 0;
-          continue;
-        }
-        float total = 0;
-        for (int c = 0; c < 3; ++c) total += q[j][c] / n[j] - (m[j][c] / n[j]) * (m[j][c] / n[j]);
-        v[j] = std::max(total / 3.0f, 0.0f);
-      }
-    }
+    // The photographs' disagreement at this depth, averaged over the window.
+    std::vector<WarpedView> warped;
+    for (const auto& source : sources)
+      warped.push_back(
+          warp_view(*source.image, *source.depth, *source.camera, shifted, target, options.occlusion_tolerance));
+    cv::Mat seen;
+    const cv::Mat variance = colour_variance(warped, size, &seen);
     cv::Mat window_variance, window_seen;
     cv::boxFilter(variance, window_variance, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);
     cv::boxFilter(seen, window_seen, CV_32F, window, cv::Point(-1, -1), true, cv::BORDER_REFLECT);

@@ -34,28 +34,8 @@ cv::Mat blurred_where_valid(const cv::Mat& image, const cv::Mat& valid, double s
 // of their colours (mean over channels, over a 5x5 window). Where geometry puts them on the same surface
 // point they agree to the noise; where it does not, they disagree and the decoded view should stay.
 cv::Mat mutual_agreement(const std::vector<WarpedView>& warped, double scale, cv::Size size) {
-  cv::Mat sum(size, CV_32FC3, cv::Scalar::all(0)), square(size, CV_32FC3, cv::Scalar::all(0));
-  cv::Mat count(size, CV_32F, cv::Scalar(0));
-  for (const auto& w : warped) {
-    sum += w.image;
-    square += w.image.mul(w.image);
-    count += w.valid;
-  }
-  cv::Mat variance(size, CV_32F, cv::Scalar(0)), pairs(size, CV_32F, cv::Scalar(0));
-  for (int i = 0; i < size.height; ++i) {
-    const cv::Vec3f* m = sum.ptr<cv::Vec3f>(i);
-    const cv::Vec3f* q = square.ptr<cv::Vec3f>(i);
-    const float* n = count.ptr<float>(i);
-    float* v = variance.ptr<float>(i);
-    float* p = pairs.ptr<float>(i);
-    for (int j = 0; j < size.width; ++j) {
-      if (n[j] < 2) continue;
-      float total = 0;
-      for (int c = 0; c < 3; ++c) total += q[j][c] / n[j] - (m[j][c] / n[j]) * (m[j][c] / n[j]);
-      v[j] = std::max(total / 3.0f, 0.0f);
-      p[j] = 1;
-    }
-  }
+  cv::Mat pairs;
+  cv::Mat variance = colour_variance(warped, size, &pairs);
   cv::boxFilter(variance, variance, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false, cv::BORDER_REFLECT);
   cv::boxFilter(pairs, pairs, CV_32F, cv::Size(5, 5), cv::Point(-1, -1), false, cv::BORDER_REFLECT);
   cv::Mat out(size, CV_32F, cv::Scalar(1));

@@ -1,5 +1,6 @@
 #include "lrf/detail/view_warp.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <Eigen/Core>
@@ -69,6 +70,33 @@ WarpedView warp_view(const cv::Mat& source_image, const cv::Mat& source_depth, c
     }
   }
   return out;
+}
+
+cv::Mat colour_variance(const std::vector<WarpedView>& warped, cv::Size size, cv::Mat* seen) {
+  cv::Mat sum(size, CV_32FC3, cv::Scalar::all(0)), square(size, CV_32FC3, cv::Scalar::all(0));
+  cv::Mat count(size, CV_32F, cv::Scalar(0));
+  for (const auto& w : warped) {
+    sum += w.image;
+    square += w.image.mul(w.image);
+    count += w.valid;
+  }
+  cv::Mat variance(size, CV_32F, cv::Scalar(0));
+  *seen = cv::Mat(size, CV_32F, cv::Scalar(0));
+  for (int i = 0; i < size.height; ++i) {
+    const cv::Vec3f* m = sum.ptr<cv::Vec3f>(i);
+    const cv::Vec3f* q = square.ptr<cv::Vec3f>(i);
+    const float* n = count.ptr<float>(i);
+    float* v = variance.ptr<float>(i);
+    float* ok = seen->ptr<float>(i);
+    for (int j = 0; j < size.width; ++j) {
+      if (n[j] < 2) continue;
+      float total = 0;
+      for (int c = 0; c < 3; ++c) total += q[j][c] / n[j] - (m[j][c] / n[j]) * (m[j][c] / n[j]);
+      v[j] = std::max(total / 3.0f, 0.0f);
+      ok[j] = 1;
+    }
+  }
+  return variance;
 }
 
 }  // namespace lrf::detail

@@ -3,6 +3,8 @@
 // view is lifted to 3D at the depth the field renders there and looked up in the source photograph,
 // unless the field says the source camera sees something nearer along that ray (occluded) or the point
 // falls outside the source image.
+#include <vector>
+
 #include <opencv2/core.hpp>
 
 #include "lrf/scene/camera.h"
@@ -22,5 +24,9 @@ struct WarpedView {
 // depth). Colours are sampled bilinearly at the projected pixel centre.
 WarpedView warp_view(const cv::Mat& source_image, const cv::Mat& source_depth, const Camera& source,
                      const cv::Mat& target_depth, const Camera& target, double occlusion_tolerance);
+
+// Per pixel, how far warped photographs disagree: the variance of the colours of those valid there (the mean
+// over channels; CV_32F), with `seen` (CV_32F) 1 where at least two are valid and 0 (variance 0) elsewhere.
+cv::Mat colour_variance(const std::vector<WarpedView>& warped, cv::Size size, cv::Mat* seen);
 
 }  // namespace lrf::detail
