@@ -49,7 +49,7 @@ lrf::cli::CommandRegistration reg(11, [](CLI::App& root) {
       ->check(CLI::IsMember({"auto", "exhaustive", "sequential"}))
       ->capture_default_str();
   cmd->add_option("--camera-model", o->camera_model,
-                  "COLMAP's camera model, one camera shared by the photos of each size. OPENCV fits a phone lens's remaining distortion; PINHOLE or SIMPLE_PINHOLE for "
+                  "COLMAP's camera model, one camera shared by the photos of each size. OPENCV fits a phone lens's remaining distortion (a fit that runs away, leaving slivers after undistortion, is redone once as SIMPLE_RADIAL); PINHOLE or SIMPLE_PINHOLE for "
                   "photos that are already undistorted. The scene's cameras are PINHOLE in every case")
       ->check(CLI::IsMember({"OPENCV", "SIMPLE_RADIAL", "RADIAL", "PINHOLE", "SIMPLE_PINHOLE"}))
       ->capture_default_str();

@@ -4,9 +4,12 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <sstream>
 #include <set>
 #include <vector>
 
+#include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
@@ -150,12 +153,15 @@ class StepTimer {
 
 // Undistortion keeps the part of a photo that its fitted lens maps inside a rectangle; a badly fitted
 // distortion leaves a sliver (80x60 of a 400x300 photo was seen), which would train a field on almost
-// nothing. Views kept at under 0.4 of a photo's width or height are refused, naming the photos.
-void refuse_collapsed_undistortion(const fs::path& model, const std::vector<PreparedPhoto>& photos,
-                                   const std::string& photos_dir) {
-  const auto cameras = read_colmap_cameras((model / "cameras.bin").string());
-  std::string collapsed;
+// nothing. Views kept at under 0.4 of a photo's width or height count as collapsed.
+struct CollapsedViews {
   int count = 0;
+  std::string listed;  // the first five, one per line: name, kept size, photo size
+};
+
+CollapsedViews collapsed_undistortion(const fs::path& model, const std::vector<PreparedPhoto>& photos) {
+  const auto cameras = read_colmap_cameras((model / "cameras.bin").string());
+  CollapsedViews collapsed;
   for (const auto& image : read_colmap_images((model / "images.bin").string())) {
     const auto photo = std::find_if(photos.begin(), photos.end(), [&](const auto& p) { return p.name == image.name; });
     const auto camera = cameras.find(image.camera_id);
@@ -165,78 +171,42 @@ void refuse_collapsed_undistortion(const fs::path& model, const std::vector<Prep
     // failures seen kept 0.2.
     const double kept_w = double(c.width) / photo->width, kept_h = double(c.height) / photo->height;
     if (std::min(kept_w, kept_h) < 0.4) {
-      ++count;
-      if (count <= 5)
-        collapsed += "\n  " + image.name + ": " + std::to_string(c.width) + "x" + std::to_string(c.height) + " of its " +
-                     std::to_string(photo->width) + "x" + std::to_string(photo->height);
+      ++collapsed.count;
+      if (collapsed.count <= 5)
+        collapsed.listed += "\n  " + image.name + ": " + std::to_string(c.width) + "x" + std::to_string(c.height) +
+                            " of its " + std::to_string(photo->width) + "x" + std::to_string(photo->height);
     }
   }
-  if (count == 0) return;
-  fail(photos_dir, "COLMAP's undistortion kept only a small part of " + std::to_string(count) + " photo" +
-                       (count == 1 ? "" : "s") + ", whose lens distortion was fitted badly:" + collapsed +
-                       "\nRemove these photos, or add more photos of the same size (a camera is fitted to the "
-                       "photos of each size together), or try --camera-model SIMPLE_RADIAL, which fits fewer "
-                       "distortion terms");
+  return collapsed;
+}
+
+// A small file's whole text; empty when it is missing.
+std::string text_of(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
 }
 
 std::string step_label(int step) { return "[" + std::to_string(step) + "/" + std::to_string(kSteps) + "] "; }
 
-}  // namespace
-
-int min_registered_photos(int photos) { return std::max(3, (photos + 1) / 2); }
-
-SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) {
-  check_options(o);
-  const std::vector<std::string> names = list_photos(o.photos);
-  const int n = static_cast<int>(names.size());
-  if (n < 3) {
-    fail(o.photos, "holds " + count_of(names.size(), "photo") + "; structure from motion needs at least 3 "
-                   "overlapping photos of the scene (a few dozen, taken while walking around it, work best)");
-  }
-  check_scene_folder(o.scene);
-  if (!colmap_available(o.colmap)) {
-    fail("cannot run '" + o.colmap + "': COLMAP is not installed or not on PATH. lrf scene create runs COLMAP "
-         "(3.8 or later) for structure from motion; install it with `apt-get install colmap` (Debian, Ubuntu), "
-         "which scripts/install-deps.sh tries as an optional package");
-  }
-  // One run at a time per scene folder, as for training: two would write the same COLMAP database (and
-  // --force would clear a folder another run is writing).
-  fs::create_directories(o.scene);
-  const FolderLock lock(o.scene);
-  prepare_scene_folder(o);
-
-  const fs::path scene(o.scene), work = fs::path(o.scene) / "colmap";
-  const std::string log = (scene / "colmap.log").string();
-  const std::string images = (work / "images").string(), database = (work / "database.db").string();
-  const std::string threads = std::to_string(o.threads > 0 ? o.threads : -1);
-  StepRecords records(work.string(), o.force);
-  log_info("scene " + o.scene + " from " + count_of(names.size(), "photo") + " in " + o.photos +
-           " (COLMAP's output goes to " + log + ")");
-
-  // 1. The photos COLMAP sees: copies, upright and downscaled. Their names and sizes key the step, so new,
-  // removed or edited photos start it again.
-  std::string photo_settings = "max_side " + std::to_string(o.max_side) + "\n";
-  for (const auto& name : names) {
-    std::error_code ec;
-    const fs::path p = fs::path(o.photos) / name;
-    photo_settings += name + " " + std::to_string(fs::file_size(p, ec)) + " " +
-                      std::to_string(fs::last_write_time(p, ec).time_since_epoch().count()) + "\n";
-  }
-  const std::string sizes_file = (work / "photo_sizes.txt").string();
+// What steps 2 to 5 share: the options, the prepared photos and the work folder's files.
+struct ColmapWork {
+  const SceneFromPhotosOptions& options;
   std::vector<PreparedPhoto> prepared;
-  if (records.skip("photos", photo_settings, fs::exists(sizes_file))) {
-    log_info(step_label(1) + "photos: already prepared in " + images);
-    prepared = read_photo_sizes(sizes_file);
-  } else {
-    log_info(step_label(1) + "photos: copying " + count_of(names.size(), "photo") + " to " + images +
-             (o.max_side > 0 ? " (longer side at most " + std::to_string(o.max_side) + " px)" : " (full size)"));
-    StepTimer t;
-    fs::remove_all(images);
-    prepared = prepare_photos(o.photos, names, images, o.max_side);
-    write_photo_sizes(sizes_file, prepared);
-    records.finished("photos");
-    log_info("    done in " + t.elapsed());
-  }
+  fs::path work;
+  std::string log, images, database, threads;
+};
+
+// Steps 2 to 5 (features, matches, mapper, undistortion) with one camera model; `result` gets the counts.
+// The undistorted model is left in work/undistorted.
+void reconstruct(const ColmapWork& w, const std::string& camera_model, StepRecords& records,
+                 SceneFromPhotosResult& result) {
+  const SceneFromPhotosOptions& o = w.options;
+  const std::vector<PreparedPhoto>& prepared = w.prepared;
+  const int n = static_cast<int>(prepared.size());
+  const fs::path& work = w.work;
+  const std::string &log = w.log, &images = w.images, &database = w.database, &threads = w.threads;
 
   // 2. Features. A phone capture is one camera at one zoom, so one camera shared by every photo: its
   // intrinsics are then fitted to all of them at once, which keeps the focal length well determined even
@@ -253,20 +223,20 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
   // The matches are stored in the database the features start, so another matcher starts a fresh one.
   std::set<std::pair<int, int>> sizes;
   for (const auto& p : prepared) sizes.insert({p.width, p.height});
-  const std::string feature_settings = "camera_model " + o.camera_model + "\nshared_camera " +
+  const std::string feature_settings = "camera_model " + camera_model + "\nshared_camera " +
                                        std::to_string(shared_camera) + "\ncameras per size\nmatcher " + matcher;
   if (records.skip("features", feature_settings, fs::exists(database))) {
     log_info(step_label(2) + "features: already extracted (" + database + ")");
   } else {
     log_info(step_label(2) + "features: SIFT on " + count_of(prepared.size(), "photo") + ", " +
-             (shared_camera ? "one " + o.camera_model + " camera shared by all"
-                            : "one " + o.camera_model + " camera for each of the " +
+             (shared_camera ? "one " + camera_model + " camera shared by all"
+                            : "one " + camera_model + " camera for each of the " +
                                   std::to_string(sizes.size()) + " photo sizes"));
     StepTimer t;
     fs::remove(database);
     log_heading(log, "colmap feature_extractor");
     run_colmap(o.colmap, "feature_extractor",
-               {"--database_path", database, "--image_path", images, "--ImageReader.camera_model", o.camera_model,
+               {"--database_path", database, "--image_path", images, "--ImageReader.camera_model", camera_model,
                 "--ImageReader.single_camera", shared_camera ? "1" : "0", "--SiftExtraction.use_gpu", "0",
                 "--SiftExtraction.num_threads", threads},
                log);
@@ -330,7 +300,6 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
     fail(log, "COLMAP's mapper could not reconstruct any part of the scene from the " +
                   count_of(prepared.size(), "photo") + ".\n" + describe_matches(database, o.init_min_inliers));
   }
-  SceneFromPhotosResult result;
   result.photos = n;
   result.models = static_cast<int>(models.size());
   result.registered = static_cast<int>(models.front().second);
@@ -376,16 +345,113 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
     records.finished("undistort");
     log_info("    done in " + t.elapsed());
   }
-  refuse_collapsed_undistortion(undistorted / "sparse", prepared, o.photos);
+}
+
+}  // namespace
+
+int min_registered_photos(int photos) { return std::max(3, (photos + 1) / 2); }
+
+SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) {
+  check_options(o);
+  const std::vector<std::string> names = list_photos(o.photos);
+  const int n = static_cast<int>(names.size());
+  if (n < 3) {
+    fail(o.photos, "holds " + count_of(names.size(), "photo") + "; structure from motion needs at least 3 "
+                   "overlapping photos of the scene (a few dozen, taken while walking around it, work best)");
+  }
+  check_scene_folder(o.scene);
+  if (!colmap_available(o.colmap)) {
+    fail("cannot run '" + o.colmap + "': COLMAP is not installed or not on PATH. lrf scene create runs COLMAP "
+         "(3.8 or later) for structure from motion; install it with `apt-get install colmap` (Debian, Ubuntu), "
+         "which scripts/install-deps.sh tries as an optional package");
+  }
+  // One run at a time per scene folder, as for training: two would write the same COLMAP database (and
+  // --force would clear a folder another run is writing).
+  fs::create_directories(o.scene);
+  const FolderLock lock(o.scene);
+  prepare_scene_folder(o);
+
+  const fs::path scene(o.scene), work = fs::path(o.scene) / "colmap";
+  const std::string log = (scene / "colmap.log").string();
+  const std::string images = (work / "images").string(), database = (work / "database.db").string();
+  const std::string threads = std::to_string(o.threads > 0 ? o.threads : -1);
+  auto records = std::make_unique<StepRecords>(work.string(), o.force);
+  log_info("scene " + o.scene + " from " + count_of(names.size(), "photo") + " in " + o.photos +
+           " (COLMAP's output goes to " + log + ")");
+
+  // 1. The photos COLMAP sees: copies, upright and downscaled. Their names and sizes key the step, so new,
+  // removed or edited photos start it again.
+  std::string photo_settings = "max_side " + std::to_string(o.max_side) + "\n";
+  for (const auto& name : names) {
+    std::error_code ec;
+    const fs::path p = fs::path(o.photos) / name;
+    photo_settings += name + " " + std::to_string(fs::file_size(p, ec)) + " " +
+                      std::to_string(fs::last_write_time(p, ec).time_since_epoch().count()) + "\n";
+  }
+  const std::string sizes_file = (work / "photo_sizes.txt").string();
+  std::vector<PreparedPhoto> prepared;
+  if (records->skip("photos", photo_settings, fs::exists(sizes_file))) {
+    log_info(step_label(1) + "photos: already prepared in " + images);
+    prepared = read_photo_sizes(sizes_file);
+  } else {
+    log_info(step_label(1) + "photos: copying " + count_of(names.size(), "photo") + " to " + images +
+             (o.max_side > 0 ? " (longer side at most " + std::to_string(o.max_side) + " px)" : " (full size)"));
+    StepTimer t;
+    fs::remove_all(images);
+    prepared = prepare_photos(o.photos, names, images, o.max_side);
+    write_photo_sizes(sizes_file, prepared);
+    records->finished("photos");
+    log_info("    done in " + t.elapsed());
+  }
+
+
+  // Steps 2 to 5. OPENCV's four distortion terms, fitted to a dozen photos of one size, sometimes run away
+  // (on one machine and not on another: SIFT's and the mapper's threads reorder their work), and
+  // undistortion then keeps a sliver of those photos. SIMPLE_RADIAL's single term does not, so a collapse
+  // under the default model is retried once with it before giving up. A marker keyed on the photos lets a
+  // resumed run go straight to the model that worked.
+  ColmapWork w{o, prepared, work, log, images, database, threads};
+  const fs::path undistorted = work / "undistorted";
+  const std::string fallback_model = "SIMPLE_RADIAL", marker = (work / "camera_model_fallback.txt").string();
+  std::string camera_model = o.camera_model;
+  if (camera_model == "OPENCV" && !o.force && text_of(marker) == photo_settings) {
+    camera_model = fallback_model;
+    records = std::make_unique<StepRecords>(work.string(), false);
+    records->skip("photos", photo_settings, true);
+    log_info("    " + fallback_model + " cameras, as in the earlier run (OPENCV's distortion fit ran away)");
+  }
+  SceneFromPhotosResult result;
+  reconstruct(w, camera_model, *records, result);
+  CollapsedViews collapsed = collapsed_undistortion(undistorted / "sparse", prepared);
+  if (collapsed.count > 0 && camera_model == "OPENCV") {
+    log_warn("OPENCV's distortion, fitted badly, left only a small part of " +
+             count_of(static_cast<size_t>(collapsed.count), "photo") + " after undistortion:" + collapsed.listed +
+             "\nfitting the cameras again as " + fallback_model + " (one radial term)");
+    camera_model = fallback_model;
+    write_file_atomic(marker, photo_settings);
+    records = std::make_unique<StepRecords>(work.string(), false);
+    records->skip("photos", photo_settings, true);
+    reconstruct(w, camera_model, *records, result);
+    collapsed = collapsed_undistortion(undistorted / "sparse", prepared);
+  }
+  if (collapsed.count > 0) {
+    fail(o.photos, "COLMAP's undistortion kept only a small part of " + std::to_string(collapsed.count) + " photo" +
+                       (collapsed.count == 1 ? "" : "s") + ", whose lens distortion was fitted badly (" +
+                       camera_model + " cameras):" + collapsed.listed +
+                       "\nRemove these photos, or add more photos of the same size (a camera is fitted to the "
+                       "photos of each size together), or try --camera-model " +
+                       (camera_model == "SIMPLE_RADIAL" ? "PINHOLE, which fits no distortion"
+                                                        : "SIMPLE_RADIAL, which fits fewer distortion terms"));
+  }
 
   // 6. The scene itself.
-  if (records.skip("scene", "", fs::exists(scene / "sparse" / "0" / "images.bin") && fs::is_directory(scene / "images"))) {
+  if (records->skip("scene", "", fs::exists(scene / "sparse" / "0" / "images.bin") && fs::is_directory(scene / "images"))) {
     log_info(step_label(6) + "scene: already written (" + o.scene + ")");
   } else {
     log_info(step_label(6) + "scene: writing " + (scene / "images").string() + " and " +
              (scene / "sparse" / "0").string());
     publish_scene(undistorted, scene);
-    records.finished("scene");
+    records->finished("scene");
   }
   result.points = read_colmap_points((scene / "sparse" / "0" / "points3D.bin").string()).size();
   return result;
