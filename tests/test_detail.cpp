@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
+#include "lrf/core/error.h"
 #include "lrf/detail/depth_sweep.h"
 #include "lrf/detail/detail_blend.h"
+#include "lrf/detail/detail_calibration.h"
 #include "lrf/detail/source_views.h"
 #include "lrf/detail/view_warp.h"
 
@@ -144,6 +146,53 @@ TEST(DetailSweep, FindsThePlaneFromAWrongDepth) {
   EXPECT_GT(right, 0.95 * seen);
   o.range = 0;  // off: the depth as given
   EXPECT_EQ(cv::norm(lrf::detail::sweep_depth(wrong, target, sources, o), wrong, cv::NORM_INF), 0);
+}
+
+// The decoded weight follows the decoder: a blurring decoder beside true photographs takes them almost
+// wholly (the lowest weight), a decoder that already returns the photograph beside slightly wrong ones
+// keeps its frame alone. Every candidate is scored, in order, and the scores are PSNRs of what was blended.
+TEST(DetailCalibration, ChoosesThePhotographsForABlurryDecoderAndNoneForASharpOne) {
+  const Camera c = camera_at(0.0);
+  cv::Mat truth, depth;
+  view_of_plane(c, 2.0, &truth, &depth, 4.0);
+  cv::Mat blurry;
+  cv::GaussianBlur(truth, blurry, cv::Size(0, 0), 3.0);
+  const cv::Mat ones(c.height, c.width, CV_32F, cv::Scalar(1));
+  lrf::detail::DetailOptions o;
+  o.consistency = 0;
+  const auto weights = lrf::detail::calibration_weights();
+
+  const auto blurry_decoder = lrf::detail::calibrate_decoded_weight({{truth, blurry, {{truth.clone(), ones}}}}, o);
+  EXPECT_EQ(blurry_decoder.decoded_weight, weights.front());
+  ASSERT_EQ(blurry_decoder.scores.size(), weights.size());
+  // The last candidate is the decoded frame alone: its score is the blurry frame's own PSNR.
+  const double blurry_mse = std::pow(cv::norm(blurry, truth, cv::NORM_L2), 2) / (truth.total() * 3.0);
+  EXPECT_NEAR(blurry_decoder.scores.back().psnr, -10 * std::log10(blurry_mse), 1e-9);
+  EXPECT_GT(blurry_decoder.scores.front().psnr, blurry_decoder.scores.back().psnr + 3);
+
+  // The photograph borrowed is the truth shifted by one pixel: close enough in colour to be trusted,
+  // wrong in its detail, so every blend scores below the sharp frame.
+  cv::Mat shifted;
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, 1, 0, 1, 0);
+  cv::warpAffine(truth, shifted, shift, truth.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  const auto sharp_decoder = lrf::detail::calibrate_decoded_weight({{truth, truth.clone(), {{shifted, ones}}}}, o);
+  EXPECT_TRUE(std::isinf(sharp_decoder.decoded_weight));
+  for (size_t k = 1; k < weights.size(); ++k) EXPECT_GT(sharp_decoder.scores[k].psnr, sharp_decoder.scores[k - 1].psnr);
+
+  EXPECT_THROW(lrf::detail::calibrate_decoded_weight({}, o), lrf::Error);
+}
+
+// A training view standing in for a novel one never borrows from itself.
+TEST(DetailSourceViews, ATrainingViewCanBeLeftOut) {
+  lrf::Scene scene;
+  for (const double x : {0.0, 0.1, 0.25, 0.45}) {
+    lrf::View v;
+    v.camera = camera_at(x);
+    scene.views.push_back(v);
+    scene.train_indices.push_back(static_cast<int>(scene.train_indices.size()));
+  }
+  EXPECT_EQ(lrf::detail::nearest_training_views(scene, camera_at(0.1), 2), (std::vector<int>{1, 0}));
+  EXPECT_EQ(lrf::detail::nearest_training_views(scene, camera_at(0.1), 2, 1), (std::vector<int>{0, 2}));
 }
 
 }  // namespace

@@ -22,8 +22,16 @@ inline void add_detail_options(CLI::App* cmd, detail::DetailOptions* o) {
       ->check(CLI::Range(1e-4, 1.0))
       ->capture_default_str();
   cmd->add_option("--detail-decoded-weight", o->decoded_weight,
-                  "Detail pass: the decoded view's own weight beside each fully trusted photograph's 1")
+                  "Detail pass: the decoded view's own weight beside each fully trusted photograph's 1; used as "
+                  "given only with --detail-calibration-views 0")
       ->check(CLI::Range(1e-4, 1e4))
+      ->capture_default_str();
+  cmd->add_option("--detail-calibration-views", o->calibration_views,
+                  "Detail pass: training views on which the decoded weight is chosen for this field (each one's "
+                  "frame is blended with its nearest other photographs and scored against its own); a field "
+                  "whose decoder is sharp enough may do best without the photographs and is then shown as it "
+                  "is. 0 = take --detail-decoded-weight as given")
+      ->check(CLI::Range(0, 64))
       ->capture_default_str();
   cmd->add_option("--detail-occlusion", o->occlusion_tolerance,
                   "Detail pass: fraction of its depth a point may lie behind the surface a photograph's camera "

@@ -19,6 +19,9 @@ struct DetailOptions {
   double blur_sigma = 2.0;            // pixels: the scale at which agreement is judged
   double agreement = 0.16;            // colour difference (0..1) at which a photograph's trust falls to 1/e
   double decoded_weight = 0.25;       // the decoded view's own weight beside each trusted photograph's 1
+                                      //   (with calibration_views > 0, chosen per field instead)
+  int calibration_views = 4;          // training views on which decoded_weight is chosen per field
+                                      //   (detail_calibration.h); 0 = take decoded_weight as given
   bool high_frequencies_only = false; // add only each photograph's detail above blur_sigma (else its colour)
   double consistency = 0.06;          // photographs' spread (std over a 5x5 window) at which every photograph's
                                       //   trust at a pixel falls to 1/e (0 = not used)

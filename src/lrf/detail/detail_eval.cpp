@@ -1,5 +1,6 @@
 #include "lrf/detail/detail_eval.h"
 
+#include <cmath>
 #include <filesystem>
 #include <optional>
 
@@ -52,12 +53,26 @@ nlohmann::json evaluate_with_detail(const std::string& run, const std::string& r
                  {"blur_sigma", d.blur_sigma},
                  {"agreement", d.agreement},
                  {"consistency", d.consistency},
-                 {"decoded_weight", d.decoded_weight},
+                 {"decoded_weight", std::isfinite(frames.decoded_weight()) ? nlohmann::json(frames.decoded_weight())
+                                                                         : nlohmann::json("decoded only")},
+                 {"calibration_views", d.calibration_views},
                  {"occlusion_tolerance", d.occlusion_tolerance},
                  {"high_frequencies_only", d.high_frequencies_only},
                  {"sweep_range", d.sweep_range},
                  {"sweep_steps", d.sweep_steps},
                  {"sweep_window", d.sweep_window}};
+  // Chosen on training views only: every test-view score above is of frames made after it.
+  if (!frames.calibration().scores.empty()) {
+    nlohmann::json scores = nlohmann::json::array();
+    for (const auto& c : frames.calibration().scores) {
+      scores.push_back({{"decoded_weight", std::isfinite(c.decoded_weight) ? nlohmann::json(c.decoded_weight)
+                                                                           : nlohmann::json("decoded only")},
+                        {"psnr", c.psnr}});
+    }
+    nlohmann::json views = nlohmann::json::array();
+    for (int v : frames.calibration_views()) views.push_back(frames.scene().views[v].name);
+    m["calibration"] = {{"training_views", views}, {"scores", scores}, {"seconds", frames.calibration_seconds()}};
+  }
   m["decoder"] = options.decoder.empty() ? "the run's own" : options.decoder;
   m["run"] = run_record({{"field", run}, {"decoder", options.decoder}, {"lpips_weights", options.lpips_weights}});
   write_json_file((fs::path(result_dir) / "metrics.json").string(), m);

@@ -1,9 +1,12 @@
 #include "lrf/detail/detail_frames.h"
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
+#include "lrf/core/log.h"
 #include "lrf/detail/depth_sweep.h"
 #include "lrf/detail/source_views.h"
 #include "lrf/detail/view_warp.h"
@@ -16,12 +19,48 @@ DetailFrames::DetailFrames(std::unique_ptr<FieldFrames> frames, const DetailOpti
     fail("the detail pass needs a splat field's depth; a latent NeRF has none here");
   if (frames_->scene().train_indices.empty()) fail(frames_->scene().root, "the scene has no training views to borrow from");
   if (options_.views < 1) fail_usage("--detail-views must be at least 1");
+  if (options_.calibration_views < 0) fail_usage("--detail-calibration-views must be 0 or more");
   sources_.resize(frames_->scene().views.size());
+  if (options_.calibration_views > 0) calibrate();
+}
+
+// Evenly spread training views, each standing in for a novel view (borrowing from the others only).
+void DetailFrames::calibrate() {
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<int>& train = scene().train_indices;
+  // A view needs at least one other to borrow from.
+  const int count = std::min<int>(options_.calibration_views, static_cast<int>(train.size()) - 1);
+  if (count < 1) return;
+  std::vector<CalibrationSample> samples;
+  for (int k = 0; k < count; ++k) {
+    const int view = train[(2 * k + 1) * train.size() / (2 * count)];
+    Inputs in = inputs(scene().views[view].camera, view, nullptr);
+    samples.push_back({source(view).image, std::move(in.decoded), std::move(in.warped)});
+    calibration_views_.push_back(view);
+  }
+  calibration_ = calibrate_decoded_weight(samples, options_);
+  options_.decoded_weight = calibration_.decoded_weight;
+  std::string table;
+  for (const auto& c : calibration_.scores) {
+    char row[64];
+    std::snprintf(row, sizeof row, "%s%s %.2f dB", table.empty() ? "" : ", ",
+                  std::isfinite(c.decoded_weight) ? std::to_string(c.decoded_weight).substr(0, 4).c_str() : "decoded only",
+                  c.psnr);
+    table += row;
+  }
+  log_info("detail pass: decoded weight chosen on " + std::to_string(count) + " training views (each borrowing "
+           "from the others): " + table);
+  borrowed_.clear();  // what frames borrow, not the calibration
+  calibration_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 std::string DetailFrames::describe() const {
+  if (!std::isfinite(options_.decoded_weight))
+    return frames_->describe() + ", as decoded (on its training views the photographs did not help)";
+  char weight[32];
+  std::snprintf(weight, sizeof weight, "%g", options_.decoded_weight);
   return frames_->describe() + ", with detail from its " + std::to_string(options_.views) +
-         " nearest training photographs";
+         " nearest training photographs (decoded weight " + weight + ")";
 }
 
 const DetailFrames::Source& DetailFrames::source(int view) {
@@ -35,10 +74,10 @@ const DetailFrames::Source& DetailFrames::source(int view) {
   return *slot;
 }
 
-cv::Mat DetailFrames::render(const Camera& camera, FrameTiming* timing) {
-  const cv::Mat decoded = to_float(frames_->render(camera, timing));
-  const auto t0 = std::chrono::steady_clock::now();
-  const std::vector<int> views = nearest_training_views(scene(), camera, options_.views);
+DetailFrames::Inputs DetailFrames::inputs(const Camera& camera, int except, FrameTiming* timing) {
+  Inputs in;
+  in.decoded = to_float(frames_->render(camera, timing));
+  const std::vector<int> views = nearest_training_views(scene(), camera, options_.views, except);
   std::vector<SweepSource> sources;
   for (int view : views) {
     const Source& s = source(view);
@@ -51,11 +90,21 @@ cv::Mat DetailFrames::render(const Camera& camera, FrameTiming* timing) {
   sweep.window = options_.sweep_window;
   sweep.occlusion_tolerance = options_.occlusion_tolerance;
   const cv::Mat depth = sweep_depth(frames_->depth(camera), camera, sources, sweep);
-  std::vector<WarpedView> warped;
   for (const auto& s : sources)
-    warped.push_back(warp_view(*s.image, *s.depth, *s.camera, depth, camera, options_.occlusion_tolerance));
-  cv::Mat frame = to_u8(blend_detail(decoded, warped, options_));
-  if (timing) timing->detail_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    in.warped.push_back(warp_view(*s.image, *s.depth, *s.camera, depth, camera, options_.occlusion_tolerance));
+  return in;
+}
+
+cv::Mat DetailFrames::render(const Camera& camera, FrameTiming* timing) {
+  if (!std::isfinite(options_.decoded_weight)) return frames_->render(camera, timing);
+  const auto t0 = std::chrono::steady_clock::now();
+  Inputs in = inputs(camera, -1, timing);
+  cv::Mat frame = to_u8(blend_detail(in.decoded, in.warped, options_));
+  if (timing) {
+    // inputs() includes the field's own render and decode, which timing holds already.
+    const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    timing->detail_ms = total_ms - timing->render_ms - timing->decode_ms;
+  }
   return frame;
 }
 

@@ -6,13 +6,16 @@
 #include <set>
 
 #include "lrf/detail/detail_blend.h"
+#include "lrf/detail/detail_calibration.h"
 #include "lrf/frames/field_frames.h"
 
 namespace lrf::detail {
 
 class DetailFrames : public FieldFrames {
  public:
-  // Throws lrf::Error when `frames` is a latent NeRF (no depth) or its scene has no training views.
+  // Throws lrf::Error when `frames` is a latent NeRF (no depth) or its scene has no training views. With
+  // options.calibration_views > 0 the decoded weight is chosen here, on that many training views
+  // (detail_calibration.h); a field that does best without the photographs then renders as it is.
   DetailFrames(std::unique_ptr<FieldFrames> frames, const DetailOptions& options);
 
   FieldKind kind() const override { return frames_->kind(); }
@@ -28,6 +31,13 @@ class DetailFrames : public FieldFrames {
   // Seconds spent loading the borrowed photographs and rendering the field's depth from their cameras (once
   // per view and scene).
   double source_seconds() const { return source_seconds_; }
+  // The calibration's scores and winner (no scores when it was not run), the training views it used and
+  // its seconds.
+  const DetailCalibration& calibration() const { return calibration_; }
+  const std::vector<int>& calibration_views() const { return calibration_views_; }
+  double calibration_seconds() const { return calibration_seconds_; }
+  // The decoded weight frames are blended with (infinity: the photographs are not used).
+  double decoded_weight() const { return options_.decoded_weight; }
 
  private:
   struct Source {
@@ -35,12 +45,22 @@ class DetailFrames : public FieldFrames {
     cv::Mat depth;  // the field's depth from that camera
   };
   const Source& source(int view);
+  // The decoded frame for `camera` and its nearest training photographs (never view `except`) carried into it.
+  struct Inputs {
+    cv::Mat decoded;  // CV_32FC3
+    std::vector<WarpedView> warped;
+  };
+  Inputs inputs(const Camera& camera, int except, FrameTiming* timing);
+  void calibrate();
 
   std::unique_ptr<FieldFrames> frames_;
   DetailOptions options_;
   std::vector<std::unique_ptr<Source>> sources_;  // by view index, loaded on first use
   std::set<int> borrowed_;
   double source_seconds_ = 0;
+  DetailCalibration calibration_;
+  std::vector<int> calibration_views_;
+  double calibration_seconds_ = 0;
 };
 
 }  // namespace lrf::detail
