@@ -40,16 +40,18 @@ void DetailFrames::calibrate() {
   }
   calibration_ = calibrate_decoded_weight(samples, options_);
   options_.decoded_weight = calibration_.decoded_weight;
-  std::string table;
+  double alone = 0, best = 0;
   for (const auto& c : calibration_.scores) {
-    char row[64];
-    std::snprintf(row, sizeof row, "%s%s %.2f dB", table.empty() ? "" : ", ",
-                  std::isfinite(c.decoded_weight) ? std::to_string(c.decoded_weight).substr(0, 4).c_str() : "decoded only",
-                  c.psnr);
-    table += row;
+    if (!std::isfinite(c.decoded_weight)) alone = c.psnr;
+    if (c.decoded_weight == calibration_.decoded_weight) best = c.psnr;
   }
-  log_info("detail pass: decoded weight chosen on " + std::to_string(count) + " training views (each borrowing "
-           "from the others): " + table);
+  char line[200];
+  if (std::isfinite(calibration_.decoded_weight))
+    std::snprintf(line, sizeof line, "the frames alone score %.2f dB, blended %.2f dB (decoded weight %g)",
+                  alone, best, calibration_.decoded_weight);
+  else
+    std::snprintf(line, sizeof line, "the frames alone score %.2f dB, better than any blend: the pass is left out", alone);
+  log_info("detail pass, on " + std::to_string(count) + " training views each borrowing from the others: " + line);
   borrowed_.clear();  // what frames borrow, not the calibration
   calibration_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
