@@ -55,6 +55,21 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   const std::string csv = lrf::read_file(dir / "run/ablation.csv");
   for (const auto& row : lrf::ablation_rows()) EXPECT_NE(csv.find("," + row + ","), std::string::npos) << row;
   EXPECT_EQ(csv.rfind("scene,method,psnr,delta_psnr,ssim,ms_ssim,flip,lpips,", 0), 0u) << csv;
+  // The detail row borrowed only the evaluation scene's training photographs, chose its weight on training
+  // views, and is scored on the both+refine field it records.
+  {
+    const std::string scene = fs::path(o.eval_scenes[0]).filename().string();
+    const nlohmann::json detail = lrf::read_json_file(dir / ("run/eval/" + scene + "/both+refine+detail/metrics.json"));
+    const nlohmann::json refined = lrf::read_json_file(dir / ("run/eval/" + scene + "/both+refine/metrics.json"));
+    EXPECT_EQ(detail["field_stamp"], refined["field_stamp"]);
+    std::vector<std::string> test_views;
+    for (const auto& v : refined["views"]) test_views.push_back(v["name"]);
+    EXPECT_FALSE(detail["borrowed_views"].empty());
+    for (const auto& name : strings(detail["borrowed_views"]))
+      EXPECT_EQ(std::count(test_views.begin(), test_views.end(), name), 0) << name;
+    for (const auto& name : strings(detail["calibration"]["training_views"]))
+      EXPECT_EQ(std::count(test_views.begin(), test_views.end(), name), 0) << name;
+  }
   // With one evaluation scene, its rows are shown once: no "mean" block repeating them (the demo's table
   // used to), and the report has no mean table; pipeline.json's mean is still that scene's scores.
   {
@@ -186,6 +201,8 @@ TEST(Pipeline, RunsAllStagesWithoutLeakageAndReusesArtefacts) {
   EXPECT_EQ(lrf::read_json_file(refined + "/config.json")["result"]["steps"], 5);
   const std::string refined_scores = dir / "run/eval/" + fs::path(o.eval_scenes[0]).filename().string() + "/both+refine/metrics.json";
   EXPECT_EQ(lrf::read_json_file(refined_scores)["field_stamp"], lrf::file_stamp(refined + "/point_cloud.ply"));
+  const std::string detail_scores = dir / "run/eval/" + fs::path(o.eval_scenes[0]).filename().string() + "/both+refine+detail/metrics.json";
+  EXPECT_EQ(lrf::read_json_file(detail_scores)["field_stamp"], lrf::file_stamp(refined + "/point_cloud.ply"));
   EXPECT_EQ(fs::last_write_time(dir / "run/stage3/decoder-ft.safetensors"), dec_time);
   // Fewer steps than were made, or another schedule, are refused.
   other.refine.steps = 4;

@@ -4,6 +4,7 @@
 
 #include "autoencoder_option.h"
 #include "command.h"
+#include "detail_options.h"
 #include "preset_option.h"
 #include "refine_options.h"
 #include "lrf/core/atomic_file.h"
@@ -80,7 +81,11 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_flag("--rgb-full", o->rgb_full,
                 "Add the rgb and rgb-mip rows: RGB fields at full resolution, without and with Mip-Splatting's filters "
                 "(upper references, and Table 2's 3DGS and Mip-Splatting rows; the costliest fields to train)");
-  cmd->add_flag("!--no-refine", o->refine_rows, "Skip the refined rows (stock+refine, both+refine)");
+  cmd->add_flag("!--no-refine", o->refine_rows, "Skip the refined rows (stock+refine, both+refine, both+refine+detail)");
+  cmd->add_flag("!--no-detail", o->detail_row,
+                "Skip the both+refine+detail row (the both+refine field's frames with the detail pass: its nearest "
+                "training photographs carried into each test view with its depth and blended in where they agree)");
+  lrf::cli::add_detail_options(cmd, &o->detail);
   auto shard = std::make_shared<std::string>();
   cmd->add_option("--shard", *shard,
                   "i/n: run only the i-th of n shares of the per-scene steps (field fits and their refinements and "

@@ -15,6 +15,20 @@ namespace fs = std::filesystem;
 
 namespace lrf::detail {
 
+nlohmann::json detail_options_json(const DetailOptions& d) {
+  return {{"views", d.views},
+          {"blur_sigma", d.blur_sigma},
+          {"agreement", d.agreement},
+          {"consistency", d.consistency},
+          {"decoded_weight", d.decoded_weight},
+          {"calibration_views", d.calibration_views},
+          {"occlusion_tolerance", d.occlusion_tolerance},
+          {"high_frequencies_only", d.high_frequencies_only},
+          {"sweep_range", d.sweep_range},
+          {"sweep_steps", d.sweep_steps},
+          {"sweep_window", d.sweep_window}};
+}
+
 nlohmann::json evaluate_with_detail(const std::string& run, const std::string& result_dir,
                                     const DetailEvalOptions& options, const nlohmann::json* base_metrics) {
   DetailFrames frames(FieldFrames::open(run, options.decoder), options.detail);
@@ -48,19 +62,9 @@ nlohmann::json evaluate_with_detail(const std::string& run, const std::string& r
     if (base_metrics->contains("storage_mb") && (*base_metrics)["storage_mb"].is_number())
       m["storage_mb"] = (*base_metrics)["storage_mb"].get<double>() + m["photographs_mb"].get<double>();
   }
-  const auto& d = options.detail;
-  m["detail"] = {{"views", d.views},
-                 {"blur_sigma", d.blur_sigma},
-                 {"agreement", d.agreement},
-                 {"consistency", d.consistency},
-                 {"decoded_weight", std::isfinite(frames.decoded_weight()) ? nlohmann::json(frames.decoded_weight())
-                                                                         : nlohmann::json("decoded only")},
-                 {"calibration_views", d.calibration_views},
-                 {"occlusion_tolerance", d.occlusion_tolerance},
-                 {"high_frequencies_only", d.high_frequencies_only},
-                 {"sweep_range", d.sweep_range},
-                 {"sweep_steps", d.sweep_steps},
-                 {"sweep_window", d.sweep_window}};
+  m["detail"] = detail_options_json(options.detail);
+  m["detail"]["decoded_weight"] = std::isfinite(frames.decoded_weight()) ? nlohmann::json(frames.decoded_weight())
+                                                                         : nlohmann::json("decoded only");
   // Chosen on training views only: every test-view score above is of frames made after it.
   if (!frames.calibration().scores.empty()) {
     nlohmann::json scores = nlohmann::json::array();

@@ -15,6 +15,9 @@ struct DetailEvalOptions {
   DetailOptions detail;
 };
 
+// The options as recorded in metrics.json ("detail") and compared to tell whether a score is reusable.
+nlohmann::json detail_options_json(const DetailOptions& options);
+
 // Scores RUN's test views with the detail pass, writes the frames to RESULT_DIR/eval/*.png and the scores
 // to RESULT_DIR/metrics.json, and returns them: the means, each view's scores, the time per frame in its
 // parts (render_fps, decode_fps, detail_ms), "depth_maps_seconds" (the field's depth from each borrowed

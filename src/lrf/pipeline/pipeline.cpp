@@ -15,6 +15,7 @@
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
+#include "lrf/detail/detail_eval.h"
 #include "lrf/eval/report.h"
 #include "lrf/eval/table.h"
 #include "lrf/rgb/rgb_eval.h"
@@ -312,6 +313,27 @@ nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& f
   return evaluate_latent_run(field, e);
 }
 
+// The detail pass's row of a refined field: reused while the field and the pass's options are those it was
+// scored with.
+nlohmann::json ensure_detail_eval(const PipelineOptions& o, const std::string& field, const std::string& dir) {
+  const std::string metrics = (fs::path(dir) / "metrics.json").string();
+  auto scores = reusable_scores(metrics);
+  const std::string field_stamp = file_stamp((fs::path(field) / "point_cloud.ply").string());
+  const nlohmann::json request = detail::detail_options_json(o.detail);
+  if (scores && scores->value("field_stamp", std::string()) == field_stamp &&
+      scores->value("detail_request", nlohmann::json()) == request) {
+    return *scores;
+  }
+  detail::DetailEvalOptions e;
+  e.lpips_weights = o.lpips_weights;
+  e.detail = o.detail;
+  nlohmann::json m = detail::evaluate_with_detail(field, dir, e);
+  m["field_stamp"] = field_stamp;
+  m["detail_request"] = request;
+  write_json_file(metrics, m);
+  return m;
+}
+
 // The scenes a Stage III decoder was fine-tuned on, from its fields' recorded configurations.
 std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
   std::vector<std::string> scenes;
@@ -326,7 +348,8 @@ std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
 
 const std::vector<std::string>& ablation_rows() {
   static const std::vector<std::string> rows = {"rgb/8",   "rgb/8-mip", "rgb",          "rgb-mip",    "stock",
-                                                "encoder", "decoder",   "both",         "stock+refine", "both+refine"};
+                                                "encoder", "decoder",   "both",         "stock+refine", "both+refine",
+                                                "both+refine+detail"};
   return rows;
 }
 
@@ -441,6 +464,7 @@ nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes,
         const std::string refined = paths.eval_field(s, "ft-refined");
         refine_eval_field(o, ft_field, paths.decoder("ft"), refined);
         ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
+        if (o.detail_row) ensure_detail_eval(o, refined, paths.eval(s, "both+refine+detail"));
       }
       return std::string();
     });
@@ -650,6 +674,11 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
       const std::string dir = paths.eval(s, row);
       m[row] = ensure_latent_eval(o, spec_pair.first, spec_pair.second, dir);
       image_dirs[row] = (fs::path(dir) / "eval").string();
+    }
+    if (o.refine_rows && o.detail_row) {
+      const std::string dir = paths.eval(s, "both+refine+detail");
+      m["both+refine+detail"] = ensure_detail_eval(o, latent_rows["both+refine"].first, dir);
+      image_dirs["both+refine+detail"] = (fs::path(dir) / "eval").string();
     }
     const double stock_psnr = m["stock"].value("psnr", 0.0);
     for (const auto& row : ablation_rows()) {

@@ -9,6 +9,8 @@
 //             their own training images (stock field + stock decoder; Stage I field + Stage III decoder)
 //   baselines RGB fields on each evaluation scene: rgb/8 and rgb/8-mip at     DIR/fields/<scene>-{rgb8,rgb8mip,
 //             latent resolution, rgb and rgb-mip at full resolution            rgb,rgbmip}
+//   detail    the both+refine field's frames with the detail pass (its nearest training photographs
+//             carried in with its depth: detail/detail_frames.h), the both+refine+detail row
 //   scores    DIR/eval/<scene>/<row>/metrics.json, DIR/ablation.csv / .md, DIR/report.html
 // Every artefact is kept; a re-run reuses what is finished and resumes what was interrupted. DIR/pipeline.json
 // records the inputs of every stage (the evidence that evaluation scenes fed no training).
@@ -21,6 +23,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/detail/detail_blend.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/encoder_finetune.h"
 #include "lrf/refine/refine.h"
@@ -45,6 +48,8 @@ struct PipelineOptions {
   bool rgb_baseline = true;         // the rgb/8 and rgb/8-mip rows
   bool rgb_full = false;            // the rgb and rgb-mip rows (full resolution: the most costly fields, on request)
   bool refine_rows = true;          // the stock+refine and both+refine rows
+  bool detail_row = true;           // the both+refine+detail row (with refine_rows)
+  detail::DetailOptions detail;     // that row's detail pass
   // --shard i/n: run only the i-th of n shares of the per-scene steps (see run_pipeline_shard).
   int shard_index = 0, shard_count = 1;
 };
@@ -53,7 +58,8 @@ struct PipelineOptions {
 void parse_shard(const std::string& text, PipelineOptions* options);
 
 // The ablation rows, in table order: the image-space baselines (rgb/8, rgb/8-mip, rgb, rgb-mip), the paper's
-// rows (stock, encoder, decoder, both), then the refined fields (stock+refine, both+refine).
+// rows (stock, encoder, decoder, both), then the refined fields (stock+refine, both+refine), then
+// both+refine with the detail pass (both+refine+detail).
 const std::vector<std::string>& ablation_rows();
 
 // Runs (or reuses) every step; returns the summary written to DIR/pipeline.json (DIR/pipeline-Kviews.json
