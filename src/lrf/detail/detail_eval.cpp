@@ -56,7 +56,7 @@ nlohmann::json evaluate_with_detail(const std::string& run, const std::string& r
   m["photographs_mb"] = photographs_bytes / (1 << 20);
   if (base_metrics) {
     for (const char* key : {"train_seconds", "encode_seconds", "fit_seconds", "refine_seconds", "peak_memory_mb",
-                            "gaussians", "roundtrip_psnr"}) {
+                            "gaussians", "roundtrip_psnr", "latent_psnr"}) {
       if (base_metrics->contains(key)) m[key] = (*base_metrics)[key];
     }
     if (base_metrics->contains("storage_mb") && (*base_metrics)["storage_mb"].is_number())

@@ -24,7 +24,7 @@ nlohmann::json detail_options_json(const DetailOptions& options);
 // training camera, made once per scene), the training views borrowed ("borrowed_views"), the options, and
 // the photographs' storage ("photographs_mb"). `base_metrics` (RUN's own metrics.json, may be null) gives
 // the field's cost (train_seconds, peak_memory_mb, gaussians, storage_mb, to which the photographs are
-// added). Throws lrf::Error naming the folder for a latent NeRF or a run without training views.
+// added) and what the pass leaves as it was (roundtrip_psnr, latent_psnr). Throws lrf::Error naming the folder for a latent NeRF or a run without training views.
 nlohmann::json evaluate_with_detail(const std::string& run, const std::string& result_dir,
                                     const DetailEvalOptions& options, const nlohmann::json* base_metrics = nullptr);
 

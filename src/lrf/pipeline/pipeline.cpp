@@ -314,8 +314,10 @@ nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& f
 }
 
 // The detail pass's row of a refined field: reused while the field and the pass's options are those it was
-// scored with.
-nlohmann::json ensure_detail_eval(const PipelineOptions& o, const std::string& field, const std::string& dir) {
+// scored with. `field_scores` (the field's own row) gives what the pass leaves as it was: the field's
+// latent and round-trip PSNR, its training time and storage.
+nlohmann::json ensure_detail_eval(const PipelineOptions& o, const std::string& field, const std::string& dir,
+                                  const nlohmann::json& field_scores) {
   const std::string metrics = (fs::path(dir) / "metrics.json").string();
   auto scores = reusable_scores(metrics);
   const std::string field_stamp = file_stamp((fs::path(field) / "point_cloud.ply").string());
@@ -327,7 +329,7 @@ nlohmann::json ensure_detail_eval(const PipelineOptions& o, const std::string& f
   detail::DetailEvalOptions e;
   e.lpips_weights = o.lpips_weights;
   e.detail = o.detail;
-  nlohmann::json m = detail::evaluate_with_detail(field, dir, e);
+  nlohmann::json m = detail::evaluate_with_detail(field, dir, e, &field_scores);
   m["field_stamp"] = field_stamp;
   m["detail_request"] = request;
   write_json_file(metrics, m);
@@ -463,8 +465,8 @@ nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes,
       if (o.refine_rows) {
         const std::string refined = paths.eval_field(s, "ft-refined");
         refine_eval_field(o, ft_field, paths.decoder("ft"), refined);
-        ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
-        if (o.detail_row) ensure_detail_eval(o, refined, paths.eval(s, "both+refine+detail"));
+        const nlohmann::json scores = ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
+        if (o.detail_row) ensure_detail_eval(o, refined, paths.eval(s, "both+refine+detail"), scores);
       }
       return std::string();
     });
@@ -677,7 +679,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     }
     if (o.refine_rows && o.detail_row) {
       const std::string dir = paths.eval(s, "both+refine+detail");
-      m["both+refine+detail"] = ensure_detail_eval(o, latent_rows["both+refine"].first, dir);
+      m["both+refine+detail"] = ensure_detail_eval(o, latent_rows["both+refine"].first, dir, m["both+refine"]);
       image_dirs["both+refine+detail"] = (fs::path(dir) / "eval").string();
     }
     const double stock_psnr = m["stock"].value("psnr", 0.0);
