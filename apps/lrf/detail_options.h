@@ -33,6 +33,17 @@ inline void add_detail_options(CLI::App* cmd, detail::DetailOptions* o) {
                   "is. 0 = take --detail-decoded-weight as given")
       ->check(CLI::Range(0, 64))
       ->capture_default_str();
+  cmd->add_flag("--detail-learn", o->learned_blend,
+                "Detail pass: learn the blend for this field on its training views (each rebuilt from its nearest "
+                "other photographs; a small network on the CPU, under a minute), kept only where it beats the "
+                "hand-made blend on training views it did not learn on");
+  cmd->add_option("--detail-learning-views", o->learning_views,
+                  "Detail pass: training views --detail-learn learns on and is judged on (every fourth held out)")
+      ->check(CLI::Range(4, 256))
+      ->capture_default_str();
+  cmd->add_option("--detail-learning-steps", o->learning_steps, "Detail pass: Adam steps of --detail-learn")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
   cmd->add_option("--detail-occlusion", o->occlusion_tolerance,
                   "Detail pass: fraction of its depth a point may lie behind the surface a photograph's camera "
                   "sees there and still be taken as seen by it")

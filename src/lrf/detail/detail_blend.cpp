@@ -52,7 +52,8 @@ cv::Mat mutual_agreement(const std::vector<WarpedView>& warped, double scale, cv
 
 }  // namespace
 
-cv::Mat blend_detail(const cv::Mat& decoded, const std::vector<WarpedView>& warped, const DetailOptions& options) {
+std::vector<cv::Mat> photograph_trusts(const cv::Mat& decoded, const std::vector<WarpedView>& warped,
+                                       const DetailOptions& options) {
   if (decoded.type() != CV_32FC3) fail("blend_detail: the decoded view must be float RGB");
   for (const auto& w : warped) {
     if (w.image.size() != decoded.size() || w.valid.size() != decoded.size())
@@ -60,31 +61,54 @@ cv::Mat blend_detail(const cv::Mat& decoded, const std::vector<WarpedView>& warp
   }
   const cv::Mat decoded_low = blurred(decoded, options.blur_sigma);
   const float inv_agreement = static_cast<float>(1.0 / options.agreement);
-  const float own = static_cast<float>(options.decoded_weight);
-  cv::Mat sum(decoded.size(), CV_32FC3, cv::Scalar::all(0));
-  cv::Mat weight(decoded.size(), CV_32F, cv::Scalar(0));
   const cv::Mat mutual = options.consistency > 0 ? mutual_agreement(warped, options.consistency, decoded.size())
                                                  : cv::Mat(decoded.size(), CV_32F, cv::Scalar(1));
+  std::vector<cv::Mat> trusts;
   for (const auto& w : warped) {
     const cv::Mat low = blurred_where_valid(w.image, w.valid, options.blur_sigma);
+    cv::Mat trust(decoded.size(), CV_32F, cv::Scalar(0));
     for (int i = 0; i < decoded.rows; ++i) {
-      const cv::Vec3f* d = decoded.ptr<cv::Vec3f>(i);
       const cv::Vec3f* dl = decoded_low.ptr<cv::Vec3f>(i);
-      const cv::Vec3f* c = w.image.ptr<cv::Vec3f>(i);
       const cv::Vec3f* cl = low.ptr<cv::Vec3f>(i);
       const float* v = w.valid.ptr<float>(i);
       const float* agree = mutual.ptr<float>(i);
-      cv::Vec3f* s = sum.ptr<cv::Vec3f>(i);
-      float* ws = weight.ptr<float>(i);
+      float* t = trust.ptr<float>(i);
       for (int j = 0; j < decoded.cols; ++j) {
         if (v[j] <= 0) continue;
         const cv::Vec3f gap = cl[j] - dl[j];
         const float e = (std::abs(gap[0]) + std::abs(gap[1]) + std::abs(gap[2])) / 3.0f * inv_agreement;
-        const float trust = v[j] * agree[j] * std::exp(-e * e);
+        t[j] = v[j] * agree[j] * std::exp(-e * e);
+      }
+    }
+    trusts.push_back(trust);
+  }
+  return trusts;
+}
+
+cv::Mat blend_detail(const cv::Mat& decoded, const std::vector<WarpedView>& warped, const DetailOptions& options) {
+  const std::vector<cv::Mat> trusts = photograph_trusts(decoded, warped, options);
+  const float own = static_cast<float>(options.decoded_weight);
+  const cv::Mat decoded_low = options.high_frequencies_only ? blurred(decoded, options.blur_sigma) : cv::Mat();
+  cv::Mat sum(decoded.size(), CV_32FC3, cv::Scalar::all(0));
+  cv::Mat weight(decoded.size(), CV_32F, cv::Scalar(0));
+  for (size_t k = 0; k < warped.size(); ++k) {
+    const WarpedView& w = warped[k];
+    const cv::Mat low = options.high_frequencies_only ? blurred_where_valid(w.image, w.valid, options.blur_sigma) : cv::Mat();
+    for (int i = 0; i < decoded.rows; ++i) {
+      const cv::Vec3f* d = decoded.ptr<cv::Vec3f>(i);
+      const cv::Vec3f* c = w.image.ptr<cv::Vec3f>(i);
+      const float* t = trusts[k].ptr<float>(i);
+      cv::Vec3f* s = sum.ptr<cv::Vec3f>(i);
+      float* ws = weight.ptr<float>(i);
+      for (int j = 0; j < decoded.cols; ++j) {
+        if (t[j] <= 0) continue;
         // A photograph proposes its colour, or the decoded view with the photograph's detail in place of its own.
-        const cv::Vec3f proposal = options.high_frequencies_only ? d[j] + (c[j] - cl[j]) - (d[j] - dl[j]) : c[j];
-        s[j] += trust * proposal;
-        ws[j] += trust;
+        const cv::Vec3f proposal =
+            options.high_frequencies_only
+                ? d[j] + (c[j] - low.ptr<cv::Vec3f>(i)[j]) - (d[j] - decoded_low.ptr<cv::Vec3f>(i)[j])
+                : c[j];
+        s[j] += t[j] * proposal;
+        ws[j] += t[j];
       }
     }
   }

@@ -22,6 +22,9 @@ struct DetailOptions {
                                       //   (with calibration_views > 0, chosen per field instead)
   int calibration_views = 4;          // training views on which decoded_weight is chosen per field
                                       //   (detail_calibration.h); 0 = take decoded_weight as given
+  bool learned_blend = false;         // learn the blend per field on its training views (blend_network.h)
+  int learning_views = 16;            // training views it learns and is judged on (each rebuilt from the others)
+  int learning_steps = 400;           // its Adam steps
   bool high_frequencies_only = false; // add only each photograph's detail above blur_sigma (else its colour)
   double consistency = 0.06;          // photographs' spread (std over a 5x5 window) at which every photograph's
                                       //   trust at a pixel falls to 1/e (0 = not used)
@@ -30,7 +33,14 @@ struct DetailOptions {
   int sweep_window = 5;               // pixels: the window over which the photographs must agree
 };
 
-// `decoded` is CV_32FC3 in [0, 1]; every warped view has its size. Returns CV_32FC3 clamped to [0, 1].
+// Each photograph's trust per pixel (CV_32F, 0..1): its validity x the photographs' mutual agreement x its
+// blurred colours' agreement with the decoded view's. `decoded` is CV_32FC3 in [0, 1]; every warped view has
+// its size (else lrf::Error).
+std::vector<cv::Mat> photograph_trusts(const cv::Mat& decoded, const std::vector<WarpedView>& warped,
+                                       const DetailOptions& options);
+
+// The decoded view and the photographs averaged with those trusts, the decoded view at its own weight.
+// Returns CV_32FC3 clamped to [0, 1].
 cv::Mat blend_detail(const cv::Mat& decoded, const std::vector<WarpedView>& warped, const DetailOptions& options);
 
 }  // namespace lrf::detail

@@ -22,6 +22,9 @@ nlohmann::json detail_options_json(const DetailOptions& d) {
           {"consistency", d.consistency},
           {"decoded_weight", d.decoded_weight},
           {"calibration_views", d.calibration_views},
+          {"learned_blend", d.learned_blend},
+          {"learning_views", d.learning_views},
+          {"learning_steps", d.learning_steps},
           {"occlusion_tolerance", d.occlusion_tolerance},
           {"high_frequencies_only", d.high_frequencies_only},
           {"sweep_range", d.sweep_range},
@@ -76,6 +79,12 @@ nlohmann::json evaluate_with_detail(const std::string& run, const std::string& r
     nlohmann::json views = nlohmann::json::array();
     for (int v : frames.calibration_views()) views.push_back(frames.scene().views[v].name);
     m["calibration"] = {{"training_views", views}, {"scores", scores}, {"seconds", frames.calibration_seconds()}};
+  }
+  if (options.detail.learned_blend) {
+    const auto& r = frames.network_report();
+    m["learned_blend"] = {{"learned_on_views", r.learned_on}, {"held_out_views", r.held_out},
+                          {"held_out_psnr_learned", r.learned_psnr}, {"held_out_psnr_handmade", r.handmade_psnr},
+                          {"seconds", r.seconds}, {"used", r.used}};
   }
   m["decoder"] = options.decoder.empty() ? "the run's own" : options.decoder;
   m["run"] = run_record({{"field", run}, {"decoder", options.decoder}, {"lpips_weights", options.lpips_weights}});

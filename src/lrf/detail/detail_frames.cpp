@@ -21,7 +21,7 @@ DetailFrames::DetailFrames(std::unique_ptr<FieldFrames> frames, const DetailOpti
   if (options_.views < 1) fail_usage("--detail-views must be at least 1");
   if (options_.calibration_views < 0) fail_usage("--detail-calibration-views must be 0 or more");
   sources_.resize(frames_->scene().views.size());
-  if (options_.calibration_views > 0) calibrate();
+  if (options_.calibration_views > 0 || options_.learned_blend) calibrate();
 }
 
 // Evenly spread training views, each standing in for a novel view (borrowing from the others only).
@@ -29,7 +29,9 @@ void DetailFrames::calibrate() {
   const auto t0 = std::chrono::steady_clock::now();
   const std::vector<int>& train = scene().train_indices;
   // A view needs at least one other to borrow from.
-  const int count = std::min<int>(options_.calibration_views, static_cast<int>(train.size()) - 1);
+  const int wanted = options_.learned_blend ? std::max(options_.learning_views, options_.calibration_views)
+                                            : options_.calibration_views;
+  const int count = std::min<int>(wanted, static_cast<int>(train.size()) - 1);
   if (count < 1) return;
   std::vector<CalibrationSample> samples;
   for (int k = 0; k < count; ++k) {
@@ -38,8 +40,29 @@ void DetailFrames::calibrate() {
     samples.push_back({source(view).image, std::move(in.decoded), std::move(in.warped)});
     calibration_views_.push_back(view);
   }
-  calibration_ = calibrate_decoded_weight(samples, options_);
-  options_.decoded_weight = calibration_.decoded_weight;
+  if (options_.calibration_views > 0) {
+    calibration_ = calibrate_decoded_weight(samples, options_);
+    options_.decoded_weight = calibration_.decoded_weight;
+    log_calibration(count);
+  }
+  if (options_.learned_blend) {
+    BlendNetworkOptions network;
+    network.steps = options_.learning_steps;
+    network_ = BlendNetwork::learn(samples, options_, network, &network_report_);
+    char line[200];
+    std::snprintf(line, sizeof line,
+                  "detail pass: a blend learned on %d training views scores %.2f dB on %d others, the hand-made one "
+                  "%.2f dB (%.0f s): %s",
+                  network_report_.learned_on, network_report_.learned_psnr, network_report_.held_out,
+                  network_report_.handmade_psnr, network_report_.seconds,
+                  network_report_.used ? "the learned one is used" : "the hand-made one is kept");
+    log_info(line);
+  }
+  borrowed_.clear();  // what frames borrow, not the calibration
+  calibration_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void DetailFrames::log_calibration(int count) const {
   double alone = 0, best = 0;
   for (const auto& c : calibration_.scores) {
     if (!std::isfinite(c.decoded_weight)) alone = c.psnr;
@@ -52,11 +75,12 @@ void DetailFrames::calibrate() {
   else
     std::snprintf(line, sizeof line, "the frames alone score %.2f dB, better than any blend: the pass is left out", alone);
   log_info("detail pass, on " + std::to_string(count) + " training views each borrowing from the others: " + line);
-  borrowed_.clear();  // what frames borrow, not the calibration
-  calibration_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 std::string DetailFrames::describe() const {
+  if (network_)
+    return frames_->describe() + ", with detail from its " + std::to_string(options_.views) +
+           " nearest training photographs (a blend learned on its training views)";
   if (!std::isfinite(options_.decoded_weight))
     return frames_->describe() + ", as decoded (on its training views the photographs did not help)";
   char weight[32];
@@ -98,10 +122,10 @@ DetailFrames::Inputs DetailFrames::inputs(const Camera& camera, int except, Fram
 }
 
 cv::Mat DetailFrames::render(const Camera& camera, FrameTiming* timing) {
-  if (!std::isfinite(options_.decoded_weight)) return frames_->render(camera, timing);
+  if (!network_ && !std::isfinite(options_.decoded_weight)) return frames_->render(camera, timing);
   const auto t0 = std::chrono::steady_clock::now();
   Inputs in = inputs(camera, -1, timing);
-  cv::Mat frame = to_u8(blend_detail(in.decoded, in.warped, options_));
+  cv::Mat frame = to_u8(network_ ? network_->blend(in.decoded, in.warped) : blend_detail(in.decoded, in.warped, options_));
   if (timing) {
     // inputs() includes the field's own render and decode, which timing holds already.
     const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

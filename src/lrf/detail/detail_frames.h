@@ -5,6 +5,7 @@
 #include <memory>
 #include <set>
 
+#include "lrf/detail/blend_network.h"
 #include "lrf/detail/detail_blend.h"
 #include "lrf/detail/detail_calibration.h"
 #include "lrf/frames/field_frames.h"
@@ -38,6 +39,8 @@ class DetailFrames : public FieldFrames {
   double calibration_seconds() const { return calibration_seconds_; }
   // The decoded weight frames are blended with (infinity: the photographs are not used).
   double decoded_weight() const { return options_.decoded_weight; }
+  // With options.learned_blend: how the learned blend did on held-out training views, and whether it is used.
+  const BlendNetworkReport& network_report() const { return network_report_; }
 
  private:
   struct Source {
@@ -52,6 +55,7 @@ class DetailFrames : public FieldFrames {
   };
   Inputs inputs(const Camera& camera, int except, FrameTiming* timing);
   void calibrate();
+  void log_calibration(int count) const;
 
   std::unique_ptr<FieldFrames> frames_;
   DetailOptions options_;
@@ -61,6 +65,8 @@ class DetailFrames : public FieldFrames {
   DetailCalibration calibration_;
   std::vector<int> calibration_views_;
   double calibration_seconds_ = 0;
+  std::unique_ptr<BlendNetwork> network_;
+  BlendNetworkReport network_report_;
 };
 
 }  // namespace lrf::detail
