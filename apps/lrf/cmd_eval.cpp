@@ -12,6 +12,7 @@
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/core/run_info.h"
 #include "lrf/detail/detail_eval.h"
 #include "lrf/rgb/rgb_eval.h"
 #include "lrf/run/field_kind.h"
@@ -104,8 +105,21 @@ int run_eval_detail(const EvalOptions& o) {
   return 0;
 }
 
+// A run writes "result" into its config.json when it finishes; before that its folder holds the Gaussians of
+// its last checkpoint, which score well below the finished field. Said once, since the figures look final.
+void warn_if_unfinished(const std::string& run) {
+  const std::string config_path = (fs::path(run) / "config.json").string();
+  if (!fs::exists(config_path)) return;  // the kind lookup names the missing file
+  const nlohmann::json config = lrf::read_json_file(config_path);
+  if (config.is_object() && !config.contains("result")) {
+    lrf::log_warn(run + " has not finished (its config.json has no result): these are the scores of its last "
+                  "checkpoint. Finish it first (the same command with --resume) for the field's own figures");
+  }
+}
+
 int run_eval(const EvalOptions& o) {
   using namespace lrf;
+  warn_if_unfinished(o.out);
   if (o.detail) return run_eval_detail(o);
   splat::check_render_options(o.scale, 0, 0);
   const auto kind = field_kind_of(o.out);
