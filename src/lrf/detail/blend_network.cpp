@@ -9,20 +9,13 @@
 
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
+#include "lrf/eval/metrics.h"
 
 namespace lrf::detail {
 namespace {
 
 // The hand-made blend's largest finite weight, used as its base when the decoded view alone was chosen.
 constexpr double kLargestBaseWeight = 8.0;
-
-torch::Tensor chw_of(const cv::Mat& image) {
-  const cv::Mat contiguous = image.isContinuous() ? image : image.clone();
-  return torch::from_blob(const_cast<float*>(contiguous.ptr<float>()), {image.rows, image.cols, image.channels()},
-                          torch::kFloat32)
-      .permute({2, 0, 1})
-      .clone();
-}
 
 // What the network sees of one view, and what it mixes.
 struct BlendInputs {
@@ -40,13 +33,13 @@ BlendInputs inputs_of(const cv::Mat& decoded, const std::vector<WarpedView>& war
   in.features = torch::zeros({3 + 5 * K, H, W}, torch::kFloat32);
   in.base = torch::full({K + 1, H, W}, std::log(1e-6), torch::kFloat32);
   in.candidates = torch::zeros({K + 1, 3, H, W}, torch::kFloat32);
-  const torch::Tensor d = chw_of(decoded);
+  const torch::Tensor d = image_to_chw(decoded);
   in.features.narrow(0, 0, 3).copy_(d);
   in.base[0].fill_(std::log(own));
   in.candidates[0].copy_(d);
   for (size_t k = 0; k < warped.size(); ++k) {
     const int64_t at = 3 + 5 * static_cast<int64_t>(k);
-    const torch::Tensor c = chw_of(warped[k].image), valid = chw_of(warped[k].valid), trust = chw_of(trusts[k]);
+    const torch::Tensor c = image_to_chw(warped[k].image), valid = image_to_chw(warped[k].valid), trust = image_to_chw(trusts[k]);
     in.features.narrow(0, at, 3).copy_(c);
     in.features.narrow(0, at + 3, 1).copy_(valid);
     in.features.narrow(0, at + 4, 1).copy_(trust);
@@ -74,7 +67,6 @@ struct Net : torch::nn::Module {
   torch::nn::Conv2d a, b, c;
 };
 
-double psnr_of(double mse) { return 10 * std::log10(1.0 / std::max(mse, 1e-12)); }
 
 }  // namespace
 
@@ -103,7 +95,7 @@ std::unique_ptr<BlendNetwork> BlendNetwork::learn(const std::vector<CalibrationS
     if (samples[i].photo.size() != samples[i].decoded.size() || samples[i].photo.type() != CV_32FC3)
       fail("BlendNetwork: a training view's photograph and decoded frame differ in size or type");
     inputs.push_back(inputs_of(samples[i].decoded, samples[i].warped, options));
-    photos.push_back(chw_of(samples[i].photo));
+    photos.push_back(image_to_chw(samples[i].photo));
     (i % 4 == 3 ? held_out : learn_on).push_back(i);
   }
   r.learned_on = static_cast<int>(learn_on.size());
@@ -145,11 +137,11 @@ std::unique_ptr<BlendNetwork> BlendNetwork::learn(const std::vector<CalibrationS
     const cv::Mat baseline = std::isfinite(options.decoded_weight)
                                  ? blend_detail(samples[i].decoded, samples[i].warped, options)
                                  : samples[i].decoded;
-    handmade += (chw_of(baseline) - photos[i]).pow(2).sum().item<double>();
+    handmade += (image_to_chw(baseline) - photos[i]).pow(2).sum().item<double>();
     values += static_cast<double>(photos[i].numel());
   }
-  r.learned_psnr = psnr_of(learned / values);
-  r.handmade_psnr = psnr_of(handmade / values);
+  r.learned_psnr = psnr_from_mse(learned / values);
+  r.handmade_psnr = psnr_from_mse(handmade / values);
   r.used = learned < handmade;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (report) *report = r;

@@ -86,7 +86,12 @@ std::vector<cv::Mat> photograph_trusts(const cv::Mat& decoded, const std::vector
 }
 
 cv::Mat blend_detail(const cv::Mat& decoded, const std::vector<WarpedView>& warped, const DetailOptions& options) {
-  const std::vector<cv::Mat> trusts = photograph_trusts(decoded, warped, options);
+  return blend_with_trusts(decoded, warped, photograph_trusts(decoded, warped, options), options);
+}
+
+cv::Mat blend_with_trusts(const cv::Mat& decoded, const std::vector<WarpedView>& warped,
+                          const std::vector<cv::Mat>& trusts, const DetailOptions& options) {
+  if (trusts.size() != warped.size()) fail("blend_detail: one trust map per warped view is needed");
   const float own = static_cast<float>(options.decoded_weight);
   const cv::Mat decoded_low = options.high_frequencies_only ? blurred(decoded, options.blur_sigma) : cv::Mat();
   cv::Mat sum(decoded.size(), CV_32FC3, cv::Scalar::all(0));

@@ -42,5 +42,9 @@ std::vector<cv::Mat> photograph_trusts(const cv::Mat& decoded, const std::vector
 // The decoded view and the photographs averaged with those trusts, the decoded view at its own weight.
 // Returns CV_32FC3 clamped to [0, 1].
 cv::Mat blend_detail(const cv::Mat& decoded, const std::vector<WarpedView>& warped, const DetailOptions& options);
+// The same with the trusts given (photograph_trusts' result, which does not depend on the decoded weight),
+// for callers that blend one view at several weights.
+cv::Mat blend_with_trusts(const cv::Mat& decoded, const std::vector<WarpedView>& warped,
+                          const std::vector<cv::Mat>& trusts, const DetailOptions& options);
 
 }  // namespace lrf::detail

@@ -28,11 +28,6 @@ void check_pair(const char* what, const torch::Tensor& a, const torch::Tensor& b
   if (a.numel() == 0) fail(std::string(what) + ": empty image");
 }
 
-double psnr_from_mse(double mse_value, double peak) {
-  if (!(mse_value > 0.0)) return kPsnrCapDb;
-  return std::min(kPsnrCapDb, 10.0 * std::log10(peak * peak / mse_value));
-}
-
 torch::Tensor clamped64(const torch::Tensor& t, double max) {
   return t.to(torch::kCPU, torch::kFloat64).clamp(0.0, max);
 }
@@ -74,6 +69,11 @@ double ssim(const torch::Tensor& a, const torch::Tensor& b, double max) {
     sum += cv::mean(t.luminance.mul(t.contrast_structure))[0];
   }
   return sum / double(x.size(0));
+}
+
+double psnr_from_mse(double mse_value, double peak) {
+  if (!(mse_value > 0.0)) return kPsnrCapDb;
+  return std::min(kPsnrCapDb, 10.0 * std::log10(peak * peak / mse_value));
 }
 
 torch::Tensor image_to_chw(const cv::Mat& image) {

@@ -14,6 +14,9 @@ namespace lrf {
 // (an MSE below 1e-10 of the peak squared). Real renders score far below it.
 constexpr double kPsnrCapDb = 100.0;
 
+// 10·log10(peak² / mse_value), capped at kPsnrCapDb (an MSE of 0 scores the cap).
+double psnr_from_mse(double mse_value, double peak = 1.0);
+
 // Mean squared error over all elements, in float64, no clamping (for latents and other unbounded data).
 double mse(const torch::Tensor& a, const torch::Tensor& b);
 // 10·log10(peak² / MSE) with no clamping of the inputs, capped at kPsnrCapDb (for latent-space PSNR).
