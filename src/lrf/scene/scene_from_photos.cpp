@@ -5,7 +5,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <sstream>
 #include <set>
 #include <vector>
 
@@ -180,20 +179,12 @@ CollapsedViews collapsed_undistortion(const fs::path& model, const std::vector<P
   return collapsed;
 }
 
-// A small file's whole text; empty when it is missing.
-std::string text_of(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 std::string step_label(int step) { return "[" + std::to_string(step) + "/" + std::to_string(kSteps) + "] "; }
 
 // What steps 2 to 5 share: the options, the prepared photos and the work folder's files.
 struct ColmapWork {
   const SceneFromPhotosOptions& options;
-  std::vector<PreparedPhoto> prepared;
+  const std::vector<PreparedPhoto>& prepared;
   fs::path work;
   std::string log, images, database, threads;
 };
@@ -414,7 +405,7 @@ SceneFromPhotosResult create_scene_from_photos(const SceneFromPhotosOptions& o) 
   const fs::path undistorted = work / "undistorted";
   const std::string fallback_model = "SIMPLE_RADIAL", marker = (work / "camera_model_fallback.txt").string();
   std::string camera_model = o.camera_model;
-  if (camera_model == "OPENCV" && !o.force && text_of(marker) == photo_settings) {
+  if (camera_model == "OPENCV" && !o.force && fs::exists(marker) && read_file(marker) == photo_settings) {
     camera_model = fallback_model;
     records = std::make_unique<StepRecords>(work.string(), false);
     records->skip("photos", photo_settings, true);
