@@ -117,6 +117,12 @@ TEST(ExpectedTime, LineExtrapolatesTheMeasuredPace) {
             "expected: 30000 steps at 25 ms/step \u2248 12m30s (an estimate from the first 20 steps; training only)");
   EXPECT_EQ(lrf::expected_time_line(300, 4, 10.0, ""),
             "expected: 300 steps at 2.5 s/step \u2248 12m30s (an estimate from the first 4 steps)");
+  // The minutes spent before the first step (triangulating points, encoding views) count in the total.
+  EXPECT_EQ(lrf::expected_time_line(300, 4, 10.0, "", 150.0),
+            "expected: 300 steps at 2.5 s/step \u2248 12m30s, 15m00s in all with the 2m30s spent before the first "
+            "step (an estimate from the first 4 steps)");
+  EXPECT_EQ(lrf::expected_time_line(300, 4, 10.0, "", 0.4),
+            "expected: 300 steps at 2.5 s/step \u2248 12m30s (an estimate from the first 4 steps)");
 }
 
 }  // namespace

@@ -12,7 +12,7 @@ int64_t run_loop(const RunLoop& l) {
   const StopOnSignals stop_on_signals;
   std::optional<ExpectedTimeNotice> expected;
   if (!l.expected_time_note.empty() && l.progress)
-    expected.emplace(l.total_steps - l.first_step, l.expected_time_note);
+    expected.emplace(l.total_steps - l.first_step, l.expected_time_note, l.prepared_seconds);
   int64_t done = l.first_step, saved = -1;
   auto save = [&] {
     l.save();

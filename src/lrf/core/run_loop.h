@@ -29,6 +29,8 @@ struct RunLoop {
   Progress* progress = nullptr;
   // Said once the first steps are timed (expected_time.h); empty: no forecast.
   std::string expected_time_note;
+  // Seconds the job spent before this loop (loading, points, encoding), added to the forecast's total.
+  double prepared_seconds = 0;
   std::function<LoopStep()> step;
   std::function<void()> save;
   // Whether to stop after the step just made; unset: a Ctrl-C or SIGTERM arrived (stop_signal()). A

@@ -36,6 +36,7 @@ nlohmann::json options_json(const LatentTrainOptions& o) {
 
 LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   using namespace lrf::splat;
+  const Stopwatch preparing;
   if (o.sh_degree < 0 || o.sh_degree > 3) fail_usage("--sh-degree must be 0..3");
   check_training_steps(o.iters);
   if (!(o.densify_grad > 0)) fail_usage("--densify-grad must be positive");
@@ -131,6 +132,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
       return g;
     };
   }
+  ro.prepared_seconds = preparing.seconds();
   auto summary = run_training(trainer, ro);
   config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},
                       {"encode_seconds", encode_seconds}, {"final_loss", summary.last_loss},

@@ -72,6 +72,7 @@ std::string nerf_field_path(const std::string& out) { return (fs::path(out) / "f
 std::string nerf_checkpoint_path(const std::string& out) { return (fs::path(out) / "checkpoint.safetensors").string(); }
 
 LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
+  const Stopwatch preparing;
   check_options(o);
   const auto lock = prepare_nerf_output(o);
   reset_peak_memory();  // this job's own peak, when another ran before it in this process (lrf compare)
@@ -163,6 +164,7 @@ LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   loop.checkpoint = checkpoint;
   loop.progress = &progress;
   loop.expected_time_note = "training only; scoring adds its own time";
+  loop.prepared_seconds = preparing.seconds();
   // The log first: killed before the checkpoint is written, a resumed run drops the log's rows past the
   // previous checkpoint; the other way round it would lose rows.
   loop.save = [&] {

@@ -71,6 +71,7 @@ std::vector<splat::TrainView> training_views(const Scene& scene, int factor) {
 
 RgbTrainResult train_rgb_field(const RgbTrainOptions& o) {
   using namespace lrf::splat;
+  const Stopwatch preparing;
   check_options(o);
   const auto lock = prepare_output_dir(o.out, o.force, o.resume);
   const SceneOptions& so = o.scene_options;
@@ -129,6 +130,7 @@ RgbTrainResult train_rgb_field(const RgbTrainOptions& o) {
   ro.resume = o.resume;
   ro.checkpoint_every = o.checkpoint_every;
   ro.task = o.task;
+  ro.prepared_seconds = preparing.seconds();
   const RunSummary summary = run_training(trainer, ro);
 
   config["result"] = {{"steps", summary.steps}, {"gaussians", summary.gaussians}, {"seconds", summary.seconds},

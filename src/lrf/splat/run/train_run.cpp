@@ -114,6 +114,7 @@ RunSummary run_training(Trainer& trainer, const RunOptions& o) {
   loop.checkpoint = ckpt;
   loop.progress = &progress;
   loop.expected_time_note = kGaussianRunNote;
+  loop.prepared_seconds = o.prepared_seconds;
   // Each checkpoint also refreshes point_cloud.ply, so that an unfinished run can be rendered and scored.
   // The log goes first: killed before the checkpoint is written, a resumed run drops the log's rows past
   // the previous checkpoint; the other way round, it would lose the rows since that checkpoint.

@@ -40,6 +40,8 @@ struct RunOptions {
   int64_t checkpoint_every = 1000;
   int64_t log_every = 10;  // rows of train_log.csv (mean loss over the rows' steps)
   std::string task = "train";
+  // Seconds the job spent before its first step (scene, points, encoded views): the forecast counts them.
+  double prepared_seconds = 0;
   // State kept beside the trainer's (e.g. a decoder trained with the field): written with every checkpoint
   // and at the end, read back on resume and when a divergence falls back to the last checkpoint.
   std::function<void()> save_extra, load_extra;
