@@ -1,0 +1,323 @@
+#include "lrf/pipeline/pipeline_steps.h"
+
+#include <filesystem>
+#include <functional>
+
+#include "lrf/core/atomic_file.h"
+#include "lrf/core/cache_key.h"
+#include "lrf/core/error.h"
+#include "lrf/core/log.h"
+#include "lrf/core/paths.h"
+#include "lrf/core/run_info.h"
+#include "lrf/detail/detail_eval.h"
+#include "lrf/finetune/pair_batches.h"
+#include "lrf/latent/latent_cache.h"
+#include "lrf/latent/latent_run.h"
+#include "lrf/points/initial_points.h"
+#include "lrf/refine/refine_folder.h"
+#include "lrf/rgb/rgb_eval.h"
+#include "lrf/rgb/rgb_train_run.h"
+#include "lrf/splat/run/train_run.h"
+
+namespace fs = std::filesystem;
+
+namespace lrf {
+namespace {
+// The settings that decide a field: scene, resolution (image folder and downscale), length, seed, (latent)
+// the autoencoder's identity and, for a K-view split, the track rule its initial points were triangulated
+// with (none: the scene's own points).
+nlohmann::json field_settings(const std::string& scene, const std::string& images, int downscale, int train_views,
+                              int64_t iters, uint64_t seed, const std::string& autoencoder_id,
+                              const nlohmann::json& min_track_length) {
+  nlohmann::json j = {{"scene", canonical_path(scene)}, {"images", images}, {"downscale", downscale},
+                      {"few_shot_views", train_views}, {"iters", iters}, {"seed", seed}};
+  if (!autoencoder_id.empty()) j["autoencoder_identity"] = autoencoder_id;
+  if (train_views > 0 && !min_track_length.is_null()) j["initial_points_min_track_length"] = min_track_length;
+  return j;
+}
+
+nlohmann::json wanted_field_settings(const std::string& scene, const SceneResolution& resolution, int train_views,
+                                     const PipelineOptions& o, const std::string& autoencoder_id) {
+  // The pipeline's fields always start from `auto` points.
+  const std::optional<int> rule = few_shot_track_rule("auto", train_views);
+  return field_settings(scene, resolution.images, resolution.downscale, train_views, o.field_iters, o.seed,
+                        autoencoder_id, rule ? nlohmann::json(*rule) : nlohmann::json());
+}
+
+// A record without the rule (written before it was recorded) gives null: the setting is then missing.
+nlohmann::json recorded_min_track_length(const nlohmann::json& config) {
+  const nlohmann::json init = config.value("init_points", nlohmann::json::object());
+  if (!init.is_object()) return nullptr;
+  return init.value("triangulation", nlohmann::json::object()).value("min_track_length", nlohmann::json());
+}
+
+// True if DIR holds a finished field made with these settings; throws if it holds one made with others.
+bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
+  if (!splat::run_finished(dir)) return false;
+  const std::string record = (fs::path(dir) / "config.json").string();
+  const nlohmann::json config = read_json_file(record);
+  const nlohmann::json& options = config.at("options");
+  const nlohmann::json recorded = field_settings(config.value("scene", std::string()),
+                                                 config.value("images", std::string()), config.value("downscale", 0),
+                                                 config.value("few_shot_views", 0),
+                                                 options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
+                                                 config.value("autoencoder_identity", std::string()),
+                                                 recorded_min_track_length(config));
+  require_same_settings(record, recorded, wanted, "the field", dir);
+  log_info("reusing field " + dir);
+  return true;
+}
+
+// The recorded options of a fine-tuning step, without the checkpoint interval, which does not change the result.
+nlohmann::json finetune_settings(nlohmann::json options) {
+  options.erase("checkpoint_every");
+  // Stage I records its scenes' own resolutions only when some scene has them (so that records from before
+  // they existed still match); without them every scene is at its default, which is compared as null.
+  if (!options.contains("scene_resolutions")) options["scene_resolutions"] = nullptr;
+  return options;
+}
+
+// A row's finished scores, reused only if they hold every metric this version reports: rows scored before
+// FLIP and MS-SSIM existed are scored again (rendering, not retraining).
+std::optional<nlohmann::json> reusable_scores(const std::string& metrics) {
+  if (!fs::exists(metrics)) return std::nullopt;
+  nlohmann::json m = read_json_file(metrics);
+  if (!m.contains("flip") || !m.contains("ms_ssim")) return std::nullopt;
+  return m;
+}
+
+// A row's scores are kept apart from its field, so they are reused only while they belong to the field as
+// it is now (its point_cloud.ply's stamp: a refined field continued to more steps is scored again) and to
+// the scoring asked for (`request`, recorded beside them; null for a plain row); else `score` makes them.
+nlohmann::json scores_of_field(const std::string& field, const std::string& dir, const nlohmann::json& request,
+                               const std::function<nlohmann::json()>& score) {
+  const std::string metrics = (fs::path(dir) / "metrics.json").string();
+  auto scores = reusable_scores(metrics);
+  const std::string field_stamp = file_stamp((fs::path(field) / "point_cloud.ply").string());
+  if (scores && scores->value("field_stamp", std::string()) == field_stamp &&
+      (request.is_null() || scores->value("detail_request", nlohmann::json()) == request)) {
+    return *scores;
+  }
+  nlohmann::json m = score();
+  m["field_stamp"] = field_stamp;
+  if (!request.is_null()) m["detail_request"] = request;
+  write_json_file(metrics, m);
+  return m;
+}
+
+// The RGB rows are scored as lrf eval scores an RGB run.
+RgbEvalOptions rgb_eval_options(const PipelineOptions& o) {
+  RgbEvalOptions e;
+  e.lpips_weights = o.lpips_weights;
+  return e;
+}
+
+}  // namespace
+
+// Refuses to reuse a finished step of the pipeline that was made with other settings than this run's,
+// naming each setting of `wanted` that the recorded ones lack or differ in.
+void require_same_settings(const std::string& record, const nlohmann::json& recorded, const nlohmann::json& wanted,
+                           const std::string& what, const std::string& folder) {
+  const std::string differ = differing_settings(recorded, wanted);
+  if (!differ.empty()) {
+    fail(record, what + " in this folder was made with other settings than the pipeline's:" + differ +
+                     "; use another output folder or remove " + folder);
+  }
+}
+
+
+void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
+                         int train_views, const std::string& dir, const std::string& encoder) {
+  if (reusable_field(dir, wanted_field_settings(scene, resolution, train_views, o,
+                                                autoencoder_identity(o.autoencoder, encoder)))) {
+    return;
+  }
+  LatentTrainOptions l;
+  l.scene = scene;
+  l.out = dir;
+  l.scene_options.images_dir = resolution.images;
+  l.scene_options.downscale = resolution.downscale;
+  l.scene_options.train_views = train_views;
+  l.autoencoder = o.autoencoder;
+  l.encoder = encoder;
+  l.cache_dir = o.cache_dir;
+  l.iters = o.field_iters;
+  l.seed = o.seed;
+  l.resume = fs::exists(splat::checkpoint_path(dir));
+  l.force = !l.resume;
+  log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
+           " steps on the " + (encoder.empty() ? "stock" : "Stage I") + " encoder's latents of " + scene +
+           " (" + (resolution.images.empty() ? "images" : resolution.images) + " downscaled " +
+           std::to_string(resolution.downscale) + "x)");
+  train_latent_field(l);
+}
+
+std::vector<RgbBaseline> rgb_baselines(const PipelineOptions& o) {
+  static const std::vector<RgbBaseline> all = {{"rgb/8", "rgb8", 8, false}, {"rgb/8-mip", "rgb8mip", 8, true},
+                                               {"rgb", "rgb", 1, false},     {"rgb-mip", "rgbmip", 1, true}};
+  std::vector<RgbBaseline> used;
+  if (!o.rgb_baseline) return used;
+  for (const RgbBaseline& b : all)
+    if (b.factor > 1 || o.rgb_full) used.push_back(b);
+  return used;
+}
+
+// An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
+void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
+                      const std::string& dir, const RgbBaseline& baseline) {
+  const int factor = baseline.factor;
+  const bool mip = baseline.mip;
+  if (reusable_field(dir, wanted_field_settings(scene, resolution, o.eval_train_views, o, ""))) return;
+  RgbTrainOptions b;
+  b.scene = scene;
+  b.scene_options.images_dir = resolution.images;
+  b.scene_options.downscale = resolution.downscale;
+  b.scene_options.train_views = o.eval_train_views;
+  b.scene_options.crop_to_multiple_of_8 = true;  // the latent fields' views
+  b.out = dir;
+  b.factor = factor;
+  b.iters = o.field_iters;
+  b.mip = mip;
+  b.seed = o.seed;
+  b.resume = fs::exists(splat::checkpoint_path(dir));
+  b.force = !b.resume;
+  b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
+  log_info("== RGB field " + dir + (b.resume ? " (resuming)" : "") + ": " + std::to_string(b.iters) + " steps on " +
+           scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
+           (mip ? ", with Mip-Splatting's filters" : ""));
+  train_rgb_field(b);
+}
+
+nlohmann::json ensure_rgb_eval(const PipelineOptions& o, const std::string& dir) {
+  auto scores = reusable_scores((fs::path(dir) / "metrics.json").string());
+  return scores ? *scores : evaluate_rgb_run(dir, rgb_eval_options(o));
+}
+
+
+// A field refined through `decoder` (refine_folder.h: reused, continued to more steps, resumed or made).
+void refine_eval_field(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+                       const std::string& dir) {
+  RefineOptions r = o.refine;
+  r.run = field;
+  r.out = dir;
+  r.decoder = decoder;
+  r.seed = o.seed;
+  r.cache_dir = o.cache_dir;
+  log_info("== refinement " + dir + ": up to " + refine_length_text(r) + " of " + field +
+           " through its decoder (a finished one is reused)");
+  ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir, false);
+}
+
+EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
+  EncoderFinetuneOptions e = o.stage1;
+  e.scenes = scenes.train;
+  e.scene_resolutions.clear();
+  if (scenes.any_given(scenes.train)) {
+    for (const auto& s : scenes.train) e.scene_resolutions.push_back(scenes.given.at(s));
+  }
+  e.correspondence_files.clear();
+  e.autoencoder = o.autoencoder;
+  e.encoder.clear();
+  e.out = paths.encoder();
+  e.max_side = o.max_side;
+  e.seed = o.seed;
+  return e;
+}
+
+// True if Stage I finished with these options; throws if it finished with others.
+bool encoder_finished(const EncoderFinetuneOptions& e) {
+  const std::string record = finetune_record_path(e.out);
+  if (!fs::exists(e.out) || !fs::exists(record)) return false;
+  require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
+                        finetune_settings(encoder_finetune_options_json(e)), "the Stage I encoder",
+                        fs::path(e.out).parent_path().string());
+  return true;
+}
+
+void ensure_encoder(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
+  EncoderFinetuneOptions e = encoder_options(o, scenes, paths);
+  if (encoder_finished(e)) {
+    log_info("reusing Stage I encoder " + e.out);
+    return;
+  }
+  e.resume = fs::exists(finetune_checkpoint_path(e.out));
+  e.force = !e.resume;
+  log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : "") + ": " + std::to_string(e.steps) +
+           " steps of " + std::to_string(e.batch.pairs) + " view pairs in " + std::to_string(e.batch.crop) +
+           "-pixel crops, on " + std::to_string(e.scenes.size()) + " training scene(s)");
+  finetune_encoder(e);
+}
+
+DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vector<std::string>& fields,
+                                       const std::string& encoder, const std::string& out) {
+  DecoderFinetuneOptions d;
+  d.fields = fields;
+  d.autoencoder = o.autoencoder;
+  d.encoder = encoder;
+  d.out = out;
+  d.steps = o.stage3_steps;
+  if (o.stage3_lr > 0) d.lr = o.stage3_lr;
+  if (o.stage3_crop > 0) d.crop = o.stage3_crop;
+  d.lambda_ssim = o.stage3_lambda_ssim;
+  d.weight_roundtrip = o.stage3_weight_roundtrip;
+  d.seed = o.seed;
+  return d;
+}
+
+// True if this Stage III decoder finished with these options; throws if it finished with others.
+bool decoder_finished(const DecoderFinetuneOptions& d) {
+  const std::string record = decoder_record_path(d.out);
+  if (!fs::exists(d.out) || !fs::exists(record)) return false;
+  require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
+                        finetune_settings(decoder_finetune_options_json(d)), "the Stage III decoder",
+                        fs::path(d.out).parent_path().string());
+  return true;
+}
+
+void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fields, const std::string& encoder,
+                    const std::string& out) {
+  DecoderFinetuneOptions d = decoder_options(o, fields, encoder, out);
+  if (decoder_finished(d)) {
+    log_info("reusing Stage III decoder " + out);
+    return;
+  }
+  d.resume = fs::exists(decoder_checkpoint_path(out));
+  d.force = !d.resume;
+  log_info("== Stage III " + out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
+           " steps on " + std::to_string(d.fields.size()) + " field(s)");
+  finetune_decoder(d);
+}
+
+nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+                                  const std::string& dir) {
+  return scores_of_field(field, dir, nullptr, [&] {
+    LatentEvalOptions e;
+    e.decoder = decoder;
+    e.lpips_weights = o.lpips_weights;
+    e.output_dir = dir;
+    return evaluate_latent_run(field, e);
+  });
+}
+
+nlohmann::json ensure_detail_eval(const PipelineOptions& o, const std::string& field, const std::string& dir,
+                                  const nlohmann::json& field_scores) {
+  return scores_of_field(field, dir, detail::detail_options_json(o.detail), [&] {
+    detail::DetailEvalOptions e;
+    e.lpips_weights = o.lpips_weights;
+    e.detail = o.detail;
+    return detail::evaluate_with_detail(field, dir, e, &field_scores);
+  });
+}
+
+
+// The scenes a Stage III decoder was fine-tuned on, from its fields' recorded configurations.
+std::vector<std::string> field_scenes(const std::vector<std::string>& fields) {
+  std::vector<std::string> scenes;
+  for (const auto& f : fields) {
+    const nlohmann::json config = read_json_file((fs::path(f) / "config.json").string());
+    scenes.push_back(canonical_path(config.value("scene", std::string())));
+  }
+  return scenes;
+}
+
+}  // namespace lrf
