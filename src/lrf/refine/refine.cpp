@@ -148,14 +148,17 @@ nlohmann::json refine_resume_key(const RefineOptions& o) {
   return j;
 }
 
-RefineResult refine_latent_field(const RefineOptions& options) {
-  using namespace lrf::splat;
+namespace {
+
+// The source field, opened and checked, and the options with its step count; a --resume must continue a
+// run refined with the same options.
+RefineOptions checked_source(const RefineOptions& options, LatentRun* src) {
   check_options(options);
-  LatentRun src = open_latent_run(options.run);
-  refuse_output_in_scene(options.out, src.scene);
-  const RefineOptions o = with_refine_steps_of(options, src.config, (fs::path(options.run) / "config.json").string());
-  if (src.scene.train_indices.empty()) fail(o.run, "the scene has no training views");
-  if (src.lift.defined())
+  *src = open_latent_run(options.run);
+  refuse_output_in_scene(options.out, src->scene);
+  const RefineOptions o = with_refine_steps_of(options, src->config, (fs::path(options.run) / "config.json").string());
+  if (src->scene.train_indices.empty()) fail(o.run, "the scene has no training views");
+  if (src->lift.defined())
     fail(o.run, "a feature field (feature-gs) cannot be refined: refinement moves latent features, and this field's "
                 "features are lifted to latents by its own 1x1 convolution");
   const std::string config_path = (fs::path(o.out) / "config.json").string();
@@ -167,6 +170,151 @@ RefineResult refine_latent_field(const RefineOptions& options) {
                         "crop, learning rates, SSIM weight and seed)");
     }
   }
+  return o;
+}
+
+// The trainer's schedule and rates for a refinement. The SH degree stays as Stage II left it, and there is
+// no opacity reset (it would undo the fit the refinement starts from); the field grows only if asked to.
+splat::TrainerOptions refine_trainer_options(const RefineOptions& o, const LatentRun& src) {
+  splat::TrainerOptions to;
+  to.iterations = o.steps;
+  to.sh_degree = src.render.sh_degree;
+  to.seed = o.seed;
+  to.background = src.render.background;
+  to.schedule.from = o.densify_until > 0 ? o.densify_interval : 0;
+  to.schedule.until = o.densify_until;
+  to.schedule.interval = o.densify_interval;
+  to.schedule.opacity_reset_every = std::numeric_limits<int64_t>::max();
+  to.schedule.sh_degree_every = 1;
+  to.densify.grad_threshold = o.densify_grad;
+  splat::LearningRates lr;
+  lr.position_init = o.position_lr * o.geometry_lr_scale;
+  lr.position_final = o.position_lr * o.geometry_lr_scale * o.lr_final;
+  lr.others_final_factor = o.lr_final;
+  lr.decay_start = o.lr_decay_start;
+  lr.scales *= o.lr_scale * o.geometry_lr_scale;
+  lr.rotations *= o.lr_scale * o.geometry_lr_scale;
+  lr.opacity *= o.lr_scale * o.geometry_lr_scale;
+  lr.sh_dc *= o.lr_scale;
+  lr.sh_rest *= o.lr_scale;
+  to.lr = lr;
+  return to;
+}
+
+// The encoded training views, normalised with the field's range, for --lambda-latent (none without it).
+std::vector<torch::Tensor> latent_anchors(const RefineOptions& o, const LatentRun& src, Autoencoder& ae) {
+  std::vector<torch::Tensor> anchors;
+  if (o.lambda_latent <= 0) return anchors;
+  auto encoded = encode_views_cached(src.scene, src.scene.train_indices, ae,
+                                     autoencoder_identity(src.autoencoder, src.encoder),
+                                     o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
+  for (const auto& z : encoded.latents) anchors.push_back(src.range.normalize(z).contiguous());
+  return anchors;
+}
+
+// The refinement's objective: the rendered latent decoded (in a window with the decoder's context, or
+// whole) and compared with the training photograph, its backward run down to the latent here.
+splat::Objective decoded_objective(const RefineOptions& o, const LatentRun& src, Autoencoder& ae,
+                                   const std::vector<torch::Tensor>& images, const std::vector<torch::Tensor>& anchors,
+                                   int reach) {
+  return [&o, &src, &ae, &images, &anchors, reach](const torch::Tensor& rendered, int view, int64_t step) {
+    const torch::Tensor& image = images[static_cast<size_t>(view)];
+    std::mt19937_64 rng(stream_seed(o.seed, SeedStream::refine_windows, static_cast<uint64_t>(step)));
+    const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
+    const auto [dx, dy] = jitter_of_step(o, step);
+    // The decoder's backward runs here, down to the rendered latent, so that the step's profile tells the
+    // decoder's share from the field's; the trainer carries the latent's gradient on into the Gaussians.
+    const torch::Tensor latent = rendered.detach().requires_grad_(true);
+    DecodedLoss d = decoded_loss(ae, src.range, latent, image, win, o.lambda_ssim, dx, dy);
+    torch::Tensor loss = d.loss;
+    if (o.lambda_latent > 0) loss = loss + o.lambda_latent * (latent - anchors[static_cast<size_t>(view)]).abs().mean();
+    splat::ObjectiveValue value;
+    value.psnr = splat::psnr(d.decoded.detach(), d.target);
+    const auto t0 = std::chrono::steady_clock::now();
+    loss.backward();
+    value.backward_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    value.loss = loss.detach();
+    value.rendered_grad = latent.grad();
+    return value;
+  };
+}
+
+// The refined run's config.json before training: the source's, with the decoder it is decoded by (an
+// adapted one: this run's own file, identified once final) and the refinement's options.
+nlohmann::json refine_config(const RefineOptions& o, const LatentRun& src, const std::string& decoder,
+                             const std::string& adapted, int reach) {
+  nlohmann::json config = src.config;
+  config.update(scene_location_record(src.scene.root, o.out));  // relative to this run's folder
+  config.erase("result");
+  config["decoder"] = decoder;
+  config["decoder_identity"] = decoder.empty() ? std::string() : weights_file_identity(decoder);
+  if (o.decoder_lr > 0) {
+    config["decoder"] = adapted;
+    config["decoder_identity"] = "";  // set when the adapted decoder is final
+    config["refine_source_decoder"] = decoder;
+  }
+  config["refine"] = run_record(refine_options_json(o));
+  config["refine"]["refined_from"] = canonical_path(o.run);
+  config["refine"]["resume_key"] = refine_resume_key(o);
+  config["refine"]["decoder_local_reach"] = reach;
+  return config;
+}
+
+// --score-every: the test views scored as the field refines, one row of curve.csv each, against the wall
+// time of the whole row (the source's encoding and fit, then this refinement).
+void score_while_refining(const RefineOptions& o, const LatentRun& src, Autoencoder& ae, splat::Trainer& trainer,
+                          splat::RunOptions* ro) {
+  if (src.scene.test_indices.empty()) fail(o.run, "--score-every: the scene has no test views to score");
+  const double before = source_seconds(src.config);
+  ro->score_every = o.score_every;
+  ro->score_header = "step,seconds,refine_seconds,psnr,ssim,ms_ssim,flip,gaussians";
+  ro->score = [&src, &ae, &trainer, before](int64_t, double refine_seconds) {
+    LatentScoring scoring;
+    scoring.scene = &src.scene;
+    scoring.range = &src.range;
+    scoring.autoencoder = &ae;
+    scoring.autoencoder_identity = autoencoder_identity(src.autoencoder, src.encoder);
+    const splat::Gaussians field = trainer.export_gaussians();
+    scoring.render = [&](int view) {
+      return render_field(field, latent_camera(src.scene.views[static_cast<size_t>(view)].camera), src.render).image;
+    };
+    const nlohmann::json m = score_latent_test_views(scoring);
+    std::ostringstream row;
+    row << before + refine_seconds << "," << refine_seconds;
+    // A score the images are too small for (MS-SSIM below its five scales) is null: an empty cell.
+    for (const char* k : {"psnr", "ssim", "ms_ssim", "flip"}) {
+      row << ",";
+      if (m.contains(k) && m[k].is_number()) row << m[k].get<double>();
+    }
+    row << "," << field.size();
+    return row.str();
+  };
+}
+
+// config.json's result: the refinement's, with the source's fit and encoding, so that the row's time is
+// everything it took.
+nlohmann::json refine_result(const LatentRun& src, const splat::RunSummary& summary) {
+  const nlohmann::json source_result = src.config.value("result", nlohmann::json::object());
+  const double stage2_seconds = source_result.value("seconds", 0.0);
+  return {{"steps", summary.steps},
+          {"gaussians", summary.gaussians},
+          {"refine_seconds", summary.seconds},
+          {"stage2_seconds", stage2_seconds},
+          {"seconds", stage2_seconds + summary.seconds},
+          {"encode_seconds", source_result.value("encode_seconds", 0.0)},
+          {"final_loss", summary.last_loss},
+          {"final_psnr", summary.last_psnr},
+          {"peak_memory_mb", std::max(peak_memory_mb(), source_result.value("peak_memory_mb", 0.0))}};
+}
+
+}  // namespace
+
+RefineResult refine_latent_field(const RefineOptions& options) {
+  using namespace lrf::splat;
+  const Stopwatch preparing;
+  LatentRun src;
+  const RefineOptions o = checked_source(options, &src);
+  const std::string config_path = (fs::path(o.out) / "config.json").string();
   const auto lock = prepare_output_dir(o.out, o.force, o.resume);
 
   const std::string decoder = o.decoder.empty() ? src.decoder : o.decoder;
@@ -189,14 +337,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
     images.push_back(image_to_batch(src.scene.load_image(i))[0].contiguous());
     views.push_back({v.name, latent_camera(v.camera), images.back()});
   }
-  // The encoded training views, normalised with the field's range, for --lambda-latent.
-  std::vector<torch::Tensor> anchors;
-  if (o.lambda_latent > 0) {
-    auto encoded = encode_views_cached(src.scene, src.scene.train_indices, *ae,
-                                       autoencoder_identity(src.autoencoder, src.encoder),
-                                       o.cache_dir.empty() ? default_cache_dir() : o.cache_dir);
-    for (const auto& z : encoded.latents) anchors.push_back(src.range.normalize(z).contiguous());
-  }
+  const std::vector<torch::Tensor> anchors = latent_anchors(o, src, *ae);
   const auto& c0 = views.front().camera;
   log_info("refining " + o.run + " (" + std::to_string(src.field.size()) + " Gaussians) through " +
            (decoder.empty() ? ae->description() + "'s decoder" : decoder) + " on " + std::to_string(views.size()) +
@@ -204,60 +345,16 @@ RefineResult refine_latent_field(const RefineOptions& options) {
            (o.crop > 0 ? ", windows of " + std::to_string(o.crop) + " px" : ", whole views") +
            (reach >= 0 ? " (decoder context " + std::to_string(reach) + " latent cells)" : " (decoded whole)"));
 
-  TrainerOptions to;
-  to.iterations = o.steps;
-  to.sh_degree = src.render.sh_degree;
-  to.seed = o.seed;
-  to.background = src.render.background;
-  // The SH degree stays as Stage II left it, and there is no opacity reset (it would undo the fit the
-  // refinement starts from); the field grows only if asked to.
-  to.schedule.from = o.densify_until > 0 ? o.densify_interval : 0;
-  to.schedule.until = o.densify_until;
-  to.schedule.interval = o.densify_interval;
-  to.schedule.opacity_reset_every = std::numeric_limits<int64_t>::max();
-  to.schedule.sh_degree_every = 1;
-  to.densify.grad_threshold = o.densify_grad;
-  LearningRates lr;
-  lr.position_init = o.position_lr * o.geometry_lr_scale;
-  lr.position_final = o.position_lr * o.geometry_lr_scale * o.lr_final;
-  lr.others_final_factor = o.lr_final;
-  lr.decay_start = o.lr_decay_start;
-  lr.scales *= o.lr_scale * o.geometry_lr_scale;
-  lr.rotations *= o.lr_scale * o.geometry_lr_scale;
-  lr.opacity *= o.lr_scale * o.geometry_lr_scale;
-  lr.sh_dc *= o.lr_scale;
-  lr.sh_rest *= o.lr_scale;
-  to.lr = lr;
-  to.objective = [&](const torch::Tensor& rendered, int view, int64_t step) {
-    const torch::Tensor& image = images[static_cast<size_t>(view)];
-    std::mt19937_64 rng(stream_seed(o.seed, SeedStream::refine_windows, static_cast<uint64_t>(step)));
-    const DecodeWindow win = plan_window(rendered.size(1), rendered.size(2), o.crop / 8, reach, rng);
-    const auto [dx, dy] = jitter_of_step(o, step);
-    // The decoder's backward runs here, down to the rendered latent, so that the step's profile tells the
-    // decoder's share from the field's; the trainer carries the latent's gradient on into the Gaussians.
-    const torch::Tensor latent = rendered.detach().requires_grad_(true);
-    DecodedLoss d = decoded_loss(*ae, src.range, latent, image, win, o.lambda_ssim, dx, dy);
-    torch::Tensor loss = d.loss;
-    if (o.lambda_latent > 0) loss = loss + o.lambda_latent * (latent - anchors[static_cast<size_t>(view)]).abs().mean();
-    ObjectiveValue value;
-    value.psnr = psnr(d.decoded.detach(), d.target);
-    const auto t0 = std::chrono::steady_clock::now();
-    loss.backward();
-    value.backward_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    value.loss = loss.detach();
-    value.rendered_grad = latent.grad();
-    return value;
-  };
+  TrainerOptions to = refine_trainer_options(o, src);
+  to.objective = decoded_objective(o, src, *ae, images, anchors, reach);
   if (o.jitter > 0) {
     to.camera_of_step = [&](const Camera& camera, int, int64_t step) {
       const auto [dx, dy] = jitter_of_step(o, step);
       return shifted_latent_camera(camera, dx, dy);
     };
   }
-  const double extent = src.config.value("extent", src.scene.camera_extent());
-
   if (decoder_adam) {
-    to.after_backward = [&](int64_t step) {
+    to.after_backward = [&, lr = to.lr](int64_t step) {
       // The decoder's rate follows the field's (--lr-final), so that a decaying run ends with a decoder
       // that no longer follows the last views it saw.
       decoder_adam->set_lr(o.decoder_lr * lr.others_factor(step, o.steps));
@@ -265,23 +362,10 @@ RefineResult refine_latent_field(const RefineOptions& options) {
       decoder_adam->zero_grad();
     };
   }
-  nlohmann::json config = src.config;
-  config.update(scene_location_record(src.scene.root, o.out));  // relative to this run's folder
-  config.erase("result");
-  config["decoder"] = decoder;
-  config["decoder_identity"] = decoder.empty() ? std::string() : weights_file_identity(decoder);
-  if (decoder_adam) {
-    config["decoder"] = adapted;
-    config["decoder_identity"] = "";  // set when the adapted decoder is final
-    config["refine_source_decoder"] = decoder;
-  }
-  config["refine"] = run_record(refine_options_json(o));
-  config["refine"]["refined_from"] = canonical_path(o.run);
-  config["refine"]["resume_key"] = refine_resume_key(o);
-  config["refine"]["decoder_local_reach"] = reach;
+  nlohmann::json config = refine_config(o, src, decoder, adapted, reach);
   write_json_file(config_path, config);
 
-  Trainer trainer(std::move(views), src.field, extent, to);
+  Trainer trainer(std::move(views), src.field, src.config.value("extent", src.scene.camera_extent()), to);
   RunOptions ro;
   ro.out = o.out;
   ro.resume = o.resume;
@@ -299,47 +383,11 @@ RefineResult refine_latent_field(const RefineOptions& options) {
         fail(adapted_checkpoint, "was written by another refinement (other options)");
     };
   }
-  if (o.score_every > 0) {
-    if (src.scene.test_indices.empty()) fail(o.run, "--score-every: the scene has no test views to score");
-    const double before = source_seconds(src.config);
-    ro.score_every = o.score_every;
-    ro.score_header = "step,seconds,refine_seconds,psnr,ssim,ms_ssim,flip,gaussians";
-    ro.score = [&, before](int64_t, double refine_seconds) {
-      LatentScoring scoring;
-      scoring.scene = &src.scene;
-      scoring.range = &src.range;
-      scoring.autoencoder = ae.get();
-      scoring.autoencoder_identity = autoencoder_identity(src.autoencoder, src.encoder);
-      const Gaussians field = trainer.export_gaussians();
-      scoring.render = [&](int view) {
-        return render_field(field, latent_camera(src.scene.views[static_cast<size_t>(view)].camera), src.render).image;
-      };
-      const nlohmann::json m = score_latent_test_views(scoring);
-      std::ostringstream row;
-      row << before + refine_seconds << "," << refine_seconds;
-      // A score the images are too small for (MS-SSIM below its five scales) is null: an empty cell.
-      for (const char* k : {"psnr", "ssim", "ms_ssim", "flip"}) {
-        row << ",";
-        if (m.contains(k) && m[k].is_number()) row << m[k].get<double>();
-      }
-      row << "," << field.size();
-      return row.str();
-    };
-  }
+  if (o.score_every > 0) score_while_refining(o, src, *ae, trainer, &ro);
+  ro.prepared_seconds = preparing.seconds();
   auto summary = run_training(trainer, ro);
   if (decoder_adam) config["decoder_identity"] = weights_file_identity(adapted);
-
-  const nlohmann::json source_result = src.config.value("result", nlohmann::json::object());
-  const double stage2_seconds = source_result.value("seconds", 0.0);
-  config["result"] = {{"steps", summary.steps},
-                      {"gaussians", summary.gaussians},
-                      {"refine_seconds", summary.seconds},
-                      {"stage2_seconds", stage2_seconds},
-                      {"seconds", stage2_seconds + summary.seconds},
-                      {"encode_seconds", source_result.value("encode_seconds", 0.0)},
-                      {"final_loss", summary.last_loss},
-                      {"final_psnr", summary.last_psnr},
-                      {"peak_memory_mb", std::max(peak_memory_mb(), source_result.value("peak_memory_mb", 0.0))}};
+  config["result"] = refine_result(src, summary);
   write_json_file(config_path, config);
   log_info("wrote " + o.out + "/point_cloud.ply: refined " + std::to_string(summary.steps) + " steps in " +
            Progress::format_duration(summary.seconds));
