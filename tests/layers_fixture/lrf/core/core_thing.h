@@ -1,0 +1,2 @@
+#pragma once
+// A header on the lowest floor.

@@ -1,0 +1,3 @@
+#pragma once
+// A header on the field kinds' floor.
+#include "lrf/core/core_thing.h"
