@@ -30,6 +30,7 @@
 #include "lrf/core/allocator.h"
 #include "lrf/core/log.h"
 #include "lrf/core/threads.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/viewer/viewer_server.h"
 
@@ -212,7 +213,7 @@ int main(int argc, char** argv) {
   }
   lrf::set_log_mode(lrf::LogMode::quiet);
   lrf::set_thread_count(threads);
-  auto frames = lrf::FieldFrames::open(run, decoder);
+  auto frames = lrf::open_field_frames(run, decoder);
   const std::string description = frames->describe();
   const int multiple = frames->size_multiple();
   std::vector<lrf::Camera> views;

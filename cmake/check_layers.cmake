@@ -12,13 +12,13 @@ set(LRF_FLOORS
   "scene,autoencoder/conv,autoencoder,eval,optim,distributed,presets"
   "splat/raster,splat,splat/train,run,splat/run,align,points,camera_path"
   "feature,rgb,latent,nerf,refine,finetune"
-  "frames,detail,video,viewer,compare,pipeline,demo")
+  "frames,field_kinds,detail,video,viewer,compare,pipeline,demo")
 set(LRF_FLOOR_NAMES
   "core"
   "data and models: scenes, autoencoders, metrics, optimisers, data parallelism"
   "Gaussians and geometry: rasteriser, trainer, run folders, initial points, correspondences, camera paths"
   "field kinds and the paper's stages: RGB, latent, feature and NeRF fields, refinement, Stage I and III"
-  "what users run: frames, detail pass, video, viewer, compare, pipeline, demo")
+  "what users run: frames, field kinds, detail pass, video, viewer, compare, pipeline, demo")
 
 if(NOT SOURCE_ROOT)
   message(FATAL_ERROR "check_layers.cmake: pass -DSOURCE_ROOT=<folder holding lrf/>")

@@ -15,6 +15,7 @@
 #include "lrf/core/safetensors.h"
 #include "lrf/feature/feature_lift.h"
 #include "lrf/feature/feature_training.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/refine/refine.h"
@@ -286,7 +287,7 @@ TEST_F(FeatureField, RenderCommandWritesLatentsOfTheAutoencodersChannels) {
 
 // Videos and the viewer take a feature field too: its frames are its features lifted to the latent, decoded.
 TEST_F(FeatureField, FramesLiftTheFeaturesBeforeDecoding) {
-  auto frames = lrf::FieldFrames::open(*dir_ / "field");
+  auto frames = lrf::open_field_frames(*dir_ / "field");
   EXPECT_EQ(frames->kind(), lrf::FieldKind::latent);
   const lrf::Camera& camera = frames->scene().views.at(0).camera;
   const cv::Mat frame = frames->render(camera);

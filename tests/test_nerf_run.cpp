@@ -16,6 +16,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
@@ -296,7 +297,7 @@ TEST_F(LatentNerfRun, CliTrainsRendersEvaluatesAndRefusesBadInput) {
 // decodes what it renders at any camera of a multiple of 8, and lrf render --path makes a video of it.
 TEST_F(LatentNerfRun, FramesMakeAPathVideoAndTheViewersScene) {
   const std::string out = *dir_ / "fit";
-  auto frames = lrf::FieldFrames::open(out);
+  auto frames = lrf::open_field_frames(out);
   EXPECT_EQ(frames->kind(), lrf::FieldKind::latent_nerf);
   EXPECT_TRUE(frames->latent());
   EXPECT_EQ(frames->size_multiple(), 8);

@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "field_helpers.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/viewer/frame_request.h"
 #include "lrf/viewer/render_queue.h"
@@ -227,7 +228,7 @@ TEST(ViewerServer, ServesPageSceneAndFramesAndRefusesTheRest) {
   const std::string field = lrf::test::tiny_field("rgb");
   v::ServeOptions options;
   options.port = 0;
-  v::ViewerServer server(lrf::FieldFrames::open(field), options);
+  v::ViewerServer server(lrf::open_field_frames(field), options);
   const int port = server.start();
   ASSERT_GT(port, 0);
   httplib::Client client("127.0.0.1", port);
@@ -320,7 +321,7 @@ TEST(ViewerServer, ServesPageSceneAndFramesAndRefusesTheRest) {
 TEST(ViewerServer, RefusesRepeatedHostHeaders) {
   v::ServeOptions options;
   options.port = 0;
-  v::ViewerServer server(lrf::FieldFrames::open(lrf::test::tiny_field("rgb")), options);
+  v::ViewerServer server(lrf::open_field_frames(lrf::test::tiny_field("rgb")), options);
   const int port = server.start();
   for (const std::string hosts : {"Host: 127.0.0.1\r\nHost: evil.example\r\n", "Host: evil.example\r\nHost: 127.0.0.1\r\n",
                                    "Host: 127.0.0.1\r\nhost: 127.0.0.1\r\n"}) {
@@ -370,7 +371,7 @@ double stream_into(int port, const std::string& head, char filler, int mb) {
 TEST(ViewerServer, HalfOpenConnectionsHoldNoThreadAndCannotLockOthersOut) {
   v::ServeOptions options;
   options.port = 0;
-  v::ViewerServer server(lrf::FieldFrames::open(lrf::test::tiny_field("rgb")), options);
+  v::ViewerServer server(lrf::open_field_frames(lrf::test::tiny_field("rgb")), options);
   const int port = server.start();
   // Both ends of every connection live in this process: 600 of them need 1200 descriptors, so the soft
   // limit is raised as far as the hard one allows, and fewer connections are made below that.
@@ -407,7 +408,7 @@ TEST(ViewerServer, HalfOpenConnectionsHoldNoThreadAndCannotLockOthersOut) {
 TEST(ViewerServer, OversizedRequestsAreRefusedBeforeTheyAreRead) {
   v::ServeOptions options;
   options.port = 0;
-  v::ViewerServer server(lrf::FieldFrames::open(lrf::test::tiny_field("rgb")), options);
+  v::ViewerServer server(lrf::open_field_frames(lrf::test::tiny_field("rgb")), options);
   const int port = server.start();
   const double before = resident_mb();
   const double body_mb = stream_into(port, "POST /api/frame HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 1000000000\r\n\r\n", 'x', 256);
@@ -441,7 +442,7 @@ TEST(ViewerServer, OversizedRequestsAreRefusedBeforeTheyAreRead) {
 TEST(ViewerServer, KeepAliveAnswersPipelinedRequestsInOrder) {
   v::ServeOptions options;
   options.port = 0;
-  v::ViewerServer server(lrf::FieldFrames::open(lrf::test::tiny_field("rgb")), options);
+  v::ViewerServer server(lrf::open_field_frames(lrf::test::tiny_field("rgb")), options);
   const int port = server.start();
   const std::string answer = raw_exchange(port,
                                           "GET /api/scene HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"
@@ -464,7 +465,7 @@ TEST(ViewerServer, LatentFieldFramesAreDecoded) {
   const std::string field = lrf::test::tiny_field("latent");
   v::ServeOptions options;
   options.port = 0;
-  v::ViewerServer server(lrf::FieldFrames::open(field), options);
+  v::ViewerServer server(lrf::open_field_frames(field), options);
   const int port = server.start();
   httplib::Client client("127.0.0.1", port);
   client.set_read_timeout(60, 0);

@@ -8,14 +8,11 @@
 #include "command.h"
 #include "detail_options.h"
 #include "next_steps.h"
-#include "lrf/latent/latent_run.h"
-#include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
 #include "lrf/detail/detail_eval.h"
-#include "lrf/rgb/rgb_eval.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/splat/run/render_size.h"
 #include "scene_override_option.h"
 
@@ -25,9 +22,7 @@ namespace {
 
 struct EvalOptions {
   std::string out;
-  double scale = 1.0;
-  std::string decoder;
-  std::string lpips_weights;
+  lrf::FieldScoring scoring;  // decoder, LPIPS weights, scale
   bool json = false;
   bool detail = false;
   lrf::detail::DetailOptions detail_options;
@@ -71,29 +66,15 @@ void report(const EvalOptions& o, const nlohmann::json& brief, bool latent) {
   lrf::cli::log_next_steps(o.out, "scored");
 }
 
-int run_eval_latent(const EvalOptions& o, bool nerf) {
-  if (o.scale != 1.0) lrf::fail_usage("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
-  lrf::LatentEvalOptions le;
-  le.decoder = o.decoder;
-  le.lpips_weights = o.lpips_weights;
-  auto m = nerf ? lrf::nerf::evaluate_nerf_run(o.out, le) : lrf::evaluate_latent_run(o.out, le);
-  nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
-                          {"lpips", m["lpips"]},
-                          {"roundtrip_psnr", m["roundtrip_psnr"]}, {"latent_psnr", m["latent_psnr"]},
-                          {"views", m["views"].size()}};
-  report(o, brief, true);
-  return 0;
-}
-
 // The field's test views with the detail pass, scored frame by frame into OUT/detail/ (metrics.json and
 // eval/*.png) so that the field's own metrics.json stays as it was.
 int run_eval_detail(const EvalOptions& o) {
   using namespace lrf;
-  if (o.scale != 1.0) fail_usage("--scale does not apply with --detail: frames are scored at the field's resolution");
+  if (o.scoring.scale != 1.0) fail_usage("--scale does not apply with --detail: frames are scored at the field's resolution");
   const std::string dir = (fs::path(o.out) / "detail").string();
   lrf::detail::DetailEvalOptions d;
-  d.decoder = o.decoder;
-  d.lpips_weights = o.lpips_weights;
+  d.decoder = o.scoring.decoder;
+  d.lpips_weights = o.scoring.lpips_weights;
   d.detail = o.detail_options;
   const nlohmann::json m = lrf::detail::evaluate_with_detail(o.out, dir, d);
   nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
@@ -121,19 +102,21 @@ int run_eval(const EvalOptions& o) {
   using namespace lrf;
   warn_if_unfinished(o.out);
   if (o.detail) return run_eval_detail(o);
-  splat::check_render_options(o.scale, 0, 0);
-  const auto kind = field_kind_of(o.out);
-  if (kind == FieldKind::latent_nerf) return run_eval_latent(o, true);
-  if (kind == FieldKind::latent) return run_eval_latent(o, false);
-  if (!o.decoder.empty()) fail_usage("--decoder applies to latent fields and latent NeRFs");
-  // The same scoring as lrf compare's RGB rows: one metrics.json, whichever command wrote it.
-  RgbEvalOptions re;
-  re.lpips_weights = o.lpips_weights;
-  re.scale = o.scale;
-  const nlohmann::json m = evaluate_rgb_run(o.out, re);
+  splat::check_render_options(o.scoring.scale, 0, 0);
+  // The same scoring as lrf compare's rows: one metrics.json, whichever command wrote it.
+  const FieldType& type = field_type_of(o.out);
+  nlohmann::json m = type.evaluate(o.out, o.scoring);
   nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
-                          {"lpips", m["lpips"]}, {"render_fps", m["render_fps"]}, {"views", m["views"].size()}};
-  report(o, brief, false);
+                          {"lpips", m["lpips"]}};
+  // A decoded field's ceiling is its autoencoder's round trip; an RGB field's speed is its own render's.
+  if (type.decoded()) {
+    brief["roundtrip_psnr"] = m["roundtrip_psnr"];
+    brief["latent_psnr"] = m["latent_psnr"];
+  } else {
+    brief["render_fps"] = m["render_fps"];
+  }
+  brief["views"] = m["views"].size();
+  report(o, brief, type.decoded());
   return 0;
 }
 
@@ -143,10 +126,10 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
                                            "decoded first");
   auto o = std::make_shared<EvalOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train, lrf refine or one method's folder of lrf compare")->required();
-  cmd->add_option("--scale", o->scale, "Evaluate at this multiple of the training resolution")->capture_default_str();
-  cmd->add_option("--decoder", o->decoder, "Latent fields (and latent NeRFs): decode with these decoder weights (e.g. Stage III's; default: "
+  cmd->add_option("--scale", o->scoring.scale, "Evaluate at this multiple of the training resolution")->capture_default_str();
+  cmd->add_option("--decoder", o->scoring.decoder, "Latent fields (and latent NeRFs): decode with these decoder weights (e.g. Stage III's; default: "
                   "the decoder a refined field was fitted through, else the autoencoder's)");
-  cmd->add_option("--lpips-weights", o->lpips_weights,
+  cmd->add_option("--lpips-weights", o->scoring.lpips_weights,
                   "LPIPS (VGG, lpips v0.1 layout: net.slice*/lin* keys) weights file; without it "
                   "metrics.json has \"lpips\": null and the reason");
   cmd->add_flag("--json", o->json,

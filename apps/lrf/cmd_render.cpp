@@ -2,28 +2,19 @@
 // camera-path video (spiral, orbit, interpolation through the training views).
 #include <cstdio>
 #include <filesystem>
-#include <functional>
 #include <memory>
 
 #include "command.h"
 #include "detail_options.h"
-#include "lrf/autoencoder/image_tensor.h"
 #include "lrf/camera_path/camera_path.h"
 #include "lrf/detail/detail_frames.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
-#include "lrf/run/field_kind.h"
 #include "lrf/video/path_video.h"
-#include "lrf/core/safetensors.h"
-#include "lrf/latent/latent_field.h"
-#include "lrf/latent/latent_run.h"
-#include "lrf/nerf/nerf_run.h"
 #include "lrf/core/error.h"
-#include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
-#include "lrf/core/progress.h"
 #include "lrf/splat/run/render_size.h"
 #include "lrf/splat/run/run_folder.h"
-#include "lrf/rgb/rgb_field.h"
 #include "lrf/scene/scene_outputs.h"
 #include "scene_override_option.h"
 
@@ -33,11 +24,7 @@ namespace {
 
 struct RenderOptions {
   std::string out;
-  std::string split = "test";
-  std::string dir;
-  double scale = 1.0;
-  int width = 0, height = 0;
-  std::string decoder;  // latent fields: decoder override (Stage III)
+  lrf::ViewRenders views;  // the scene's views; their scale, size and decoder serve --path too
   bool split_given = false;
   // Camera-path videos (--path).
   std::string path, video, frames_dir;
@@ -52,9 +39,9 @@ struct RenderOptions {
 int run_render_path(const RenderOptions& o) {
   using namespace lrf;
   if (o.split_given) fail_usage("--split chooses the scene's views; a --path video has its own cameras");
-  std::unique_ptr<FieldFrames> frames = FieldFrames::open(o.out, o.decoder);
+  std::unique_ptr<FieldFrames> frames = open_field_frames(o.out, o.views.decoder);
   if (o.detail) frames = std::make_unique<lrf::detail::DetailFrames>(std::move(frames), o.detail_options);
-  if (frames->latent() && (o.scale != 1.0 || o.width > 0))
+  if (frames->latent() && (o.views.scale != 1.0 || o.views.width > 0))
     fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and decode at 8x");
   const auto kind = camera_path::parse_path_kind(o.path);
   camera_path::PathOptions po;
@@ -62,7 +49,7 @@ int run_render_path(const RenderOptions& o) {
   camera_path::PathGeometry geometry;
   if (!o.frames_dir.empty()) refuse_output_in_scene(o.frames_dir, frames->scene());
   auto path = camera_path::make_path(frames->scene(), kind, po, &geometry);
-  for (auto& c : path) c = splat::scaled_camera(c, o.scale, o.width, o.height);
+  for (auto& c : path) c = splat::scaled_camera(c, o.views.scale, o.views.width, o.views.height);
   video::PathVideoOptions vo;
   vo.video = o.video;
   vo.frames_dir = o.frames_dir;
@@ -101,90 +88,14 @@ int run_render_path(const RenderOptions& o) {
   return 0;
 }
 
-// Latent fields and latent NeRFs: the rendered latents (denormalised, safetensors, one tensor "latent"
-// [C, h, w] per view) and the decoded images, at the training latent resolution. `render_view(i)` gives view
-// i's normalised latent.
-int run_render_latent(const RenderOptions& o, const std::vector<int>& indices, const lrf::Scene& scene,
-                      const lrf::LatentRange& range, lrf::Autoencoder& ae,
-                      const std::function<torch::Tensor(int)>& render_view, const std::string& dir) {
-  using namespace lrf;
-  Progress progress("render", static_cast<long>(indices.size()));
-  long done = 0;
-  for (int i : indices) {
-    const auto& view = scene.views[static_cast<size_t>(i)];
-    auto zn = render_view(i);
-    const std::string stem = (fs::path(dir) / fs::path(view.name).stem()).string();
-    StateDict latent;
-    latent.insert("latent", range.denormalize(zn).contiguous());
-    write_safetensors(stem + ".safetensors", latent, {{"view", view.name}, {"space", "raw latent"}});
-    write_image_rgb(stem + ".png", tensor_to_image(decode_normalised(ae, range, zn)));
-    progress.update(++done);
-  }
-  progress.finish();
-  log_info("wrote " + std::to_string(indices.size()) + " latents (.safetensors) and decoded images to " + dir);
-  return 0;
-}
-
 int run_render(const RenderOptions& o) {
   using namespace lrf;
-  using namespace lrf::splat;
-  check_render_options(o.scale, o.width, o.height);  // before the field is even opened
+  splat::check_render_options(o.views.scale, o.views.width, o.views.height);  // before the field is even opened
   if (!o.path.empty()) return run_render_path(o);
   if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given || o.stability)
     fail_usage("--video, --frames-dir, --frames, --fps and --stability go with --path");
   if (o.detail) fail_usage("--detail goes with --path (lrf eval --detail scores the scene's test views with it)");
-  const auto kind = field_kind_of(o.out);
-  const bool nerf_field = kind == FieldKind::latent_nerf;
-  const bool latent = kind == FieldKind::latent;
-  LatentRun lrun;
-  nerf::NerfRun nrun;
-  FieldRun run;
-  if (nerf_field) {
-    nrun = nerf::open_nerf_run(o.out);
-    run.scene = nrun.scene;
-  } else if (latent) {
-    lrun = open_latent_run(o.out);
-    run.scene = lrun.scene;
-  } else {
-    if (!o.decoder.empty()) fail_usage("--decoder applies to latent fields");
-    run = open_field_run(o.out);
-  }
-  std::vector<int> indices;
-  if (o.split == "test") indices = run.scene.test_indices;
-  else if (o.split == "train") indices = run.scene.train_indices;
-  else if (o.split == "all") for (size_t i = 0; i < run.scene.views.size(); ++i) indices.push_back(int(i));
-  else fail_usage("--split must be test, train or all");
-  if (indices.empty()) fail(o.out, "the '" + o.split + "' split has no views");
-  // Every view's size is checked before anything is written.
-  if ((nerf_field || latent) && (o.scale != 1.0 || o.width > 0))
-    fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and "
-               "decode at 8x");
-  std::vector<Camera> cameras;  // RGB fields: each view's camera at the size asked for
-  if (!nerf_field && !latent)
-    for (int i : indices) cameras.push_back(scaled_camera(run.scene.views[size_t(i)].camera, o.scale, o.width, o.height));
-  const std::string dir = o.dir.empty() ? (fs::path(o.out) / "renders" / o.split).string() : o.dir;
-  refuse_output_in_scene(dir, run.scene);
-  fs::create_directories(dir);
-  if (nerf_field) {
-    auto ae = load_autoencoder(nrun.autoencoder, nrun.encoder, o.decoder);
-    return run_render_latent(o, indices, nrun.scene, nrun.range, *ae,
-                             [&](int i) { return nerf::render_nerf_latent(nrun, i); }, dir);
-  }
-  if (latent) {
-    auto ae = load_autoencoder(lrun.autoencoder, lrun.encoder, o.decoder.empty() ? lrun.decoder : o.decoder);
-    return run_render_latent(o, indices, lrun.scene, lrun.range, *ae, [&](int i) { return render_latent(lrun, i); },
-                             dir);
-  }
-  Progress progress("render", static_cast<long>(indices.size()));
-  long done = 0;
-  for (size_t k = 0; k < indices.size(); ++k) {
-    const auto& view = run.scene.views[static_cast<size_t>(indices[k])];
-    auto image = render_field(run.field, cameras[k], run.render).image;
-    write_image_rgb((fs::path(dir) / (fs::path(view.name).stem().string() + ".png")).string(), splat::tensor_to_image(image));
-    progress.update(++done);
-  }
-  progress.finish();
-  log_info("wrote " + std::to_string(indices.size()) + " images to " + dir);
+  field_type_of(o.out).render_views(o.out, o.views);
   return 0;
 }
 
@@ -195,15 +106,15 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   auto o = std::make_shared<RenderOptions>();
   cmd->add_option("out", o->out, "Output folder of lrf train or lrf refine, or a method's folder of lrf compare (any "
                                    "kind of field)")->required();
-  auto* split = cmd->add_option("--split", o->split, "Which views: test, train or all")->capture_default_str();
-  cmd->add_option("-o,--dir", o->dir, "Folder for the images (default OUT/renders/SPLIT)");
+  auto* split = cmd->add_option("--split", o->views.split, "Which views: test, train or all")->capture_default_str();
+  cmd->add_option("-o,--dir", o->views.dir, "Folder for the images (default OUT/renders/SPLIT)");
   const std::string most = std::to_string(lrf::splat::kMaxRenderSide);
-  auto* scale = cmd->add_option("--scale", o->scale, "Resolution relative to training (RGB fields; images of at most " +
+  auto* scale = cmd->add_option("--scale", o->views.scale, "Resolution relative to training (RGB fields; images of at most " +
                                                          most + " pixels per side)")
                     ->capture_default_str();
-  cmd->add_option("--width", o->width, "Render width in pixels (with --height; at most " + most + ")")->excludes(scale);
-  cmd->add_option("--height", o->height, "Render height in pixels (with --width; at most " + most + ")")->excludes(scale);
-  cmd->add_option("--decoder", o->decoder, "Latent fields and latent NeRFs: decode with these decoder weights (e.g. Stage III's; default: the decoder "
+  cmd->add_option("--width", o->views.width, "Render width in pixels (with --height; at most " + most + ")")->excludes(scale);
+  cmd->add_option("--height", o->views.height, "Render height in pixels (with --width; at most " + most + ")")->excludes(scale);
+  cmd->add_option("--decoder", o->views.decoder, "Latent fields and latent NeRFs: decode with these decoder weights (e.g. Stage III's; default: the decoder "
                   "a refined field was fitted through, else the autoencoder's)");
   cmd->add_option("--path", o->path, "Render a camera path instead of the scene's views: spiral (LLFF's spiral around "
                   "the mean training pose, for forward-facing scenes), orbit (a turn around the SfM points' centre, for "

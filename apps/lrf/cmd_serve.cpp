@@ -12,6 +12,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/detail/detail_frames.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/viewer/viewer_server.h"
 #include "scene_override_option.h"
@@ -30,7 +31,7 @@ void on_signal(int) { g_stop = 1; }
 
 int run_serve(const ServeCliOptions& o) {
   using namespace lrf;
-  std::unique_ptr<FieldFrames> frames = FieldFrames::open(o.run, o.decoder);
+  std::unique_ptr<FieldFrames> frames = open_field_frames(o.run, o.decoder);
   if (o.detail) frames = std::make_unique<lrf::detail::DetailFrames>(std::move(frames), o.detail_options);
   log_info(frames->describe());
   if (!viewer::is_loopback_host(o.server.host))

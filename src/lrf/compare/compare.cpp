@@ -8,6 +8,7 @@
 #include "lrf/compare/compare_report.h"
 #include "lrf/core/error.h"
 #include "lrf/detail/detail_eval.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
 #include "lrf/core/paths.h"
@@ -18,7 +19,6 @@
 #include "lrf/points/initial_points.h"
 #include "lrf/refine/refine.h"
 #include "lrf/refine/refine_folder.h"
-#include "lrf/rgb/rgb_eval.h"
 #include "lrf/rgb/rgb_train_run.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/run/train_run.h"
@@ -134,9 +134,9 @@ class CompareRun {
     switch (m.job) {
       case CompareJob::latent_field:
         ensure_latent_field();
-        return latent_scores(dir, o_.decoder);
+        return scores_of(dir, o_.decoder);
       case CompareJob::refined_latent:  // refined above, through the decoder it records
-        return latent_scores(dir, "");
+        return scores_of(dir, "");
       case CompareJob::latent_nerf:
         return nerf_scores(m, dir, resume);
       case CompareJob::feature_field:
@@ -151,10 +151,10 @@ class CompareRun {
   std::string dir_of(const std::string& method) const { return (fs::path(o_.out) / compare_method_dir(method)).string(); }
   int feature_dim() const { return o_.feature_dim > 0 ? o_.feature_dim : kHalfLatentChannels; }
 
-  // A latent NeRF keeps its own files (nerf/nerf_run.h); every other method is a Gaussian field.
+  // A latent NeRF's length is checked too: it is not in compare.json's settings.
   bool finished(const CompareMethod& m, const std::string& dir) const {
-    if (m.kind != FieldKind::latent_nerf) return splat::run_finished(dir);
-    if (!nerf::nerf_run_finished(dir)) return false;
+    if (!field_type(m.kind).finished(dir)) return false;
+    if (m.job != CompareJob::latent_nerf) return true;
     const int64_t steps = nerf::recorded_nerf_options(dir).iters;
     if (steps != nerf_iters_ && !o_.force)
       fail(dir, "this latent NeRF was trained for " + std::to_string(steps) + " steps, not --nerf-steps " +
@@ -162,9 +162,7 @@ class CompareRun {
     return true;
   }
   bool resumable(const CompareMethod& m, const std::string& dir) const {
-    const std::string checkpoint =
-        m.kind == FieldKind::latent_nerf ? nerf::nerf_checkpoint_path(dir) : splat::checkpoint_path(dir);
-    return !o_.force && fs::exists(checkpoint) && !finished(m, dir);
+    return !o_.force && fs::exists(field_type(m.kind).checkpoint_path(dir)) && !finished(m, dir);
   }
 
   // A folder made with another feature count or SH degree is refused rather than reused (without --force).
@@ -218,18 +216,16 @@ class CompareRun {
                                 o_.force || latent_fresh_);
   }
 
-  nlohmann::json latent_scores(const std::string& dir, const std::string& decoder) const {
-    LatentEvalOptions le;
-    le.decoder = decoder;
-    le.lpips_weights = o_.lpips_weights;
-    return evaluate_latent_run(dir, le);
+  // A row's scores, as lrf eval gives them for its kind of field.
+  nlohmann::json scores_of(const std::string& dir, const std::string& decoder) const {
+    return field_type_of(dir).evaluate(dir, {decoder, o_.lpips_weights, 1.0});
   }
 
   // The detail pass has no field of its own and takes seconds: it is scored again every time, with the
   // options asked for now, on latent-refined's field and beside its scores.
   nlohmann::json detail_scores(const std::string& dir, bool refined_now) const {
     const std::string refined_metrics = (fs::path(refined_dir_) / "metrics.json").string();
-    if (refined_now || !fs::exists(refined_metrics)) latent_scores(refined_dir_, "");
+    if (refined_now || !fs::exists(refined_metrics)) scores_of(refined_dir_, "");
     const nlohmann::json base = read_json_file(refined_metrics);
     detail::DetailEvalOptions d;
     d.lpips_weights = o_.lpips_weights;
@@ -253,10 +249,7 @@ class CompareRun {
       n.force = !resume;
       nerf::train_latent_nerf(n);
     }
-    LatentEvalOptions le;
-    le.decoder = o_.decoder;
-    le.lpips_weights = o_.lpips_weights;
-    return nerf::evaluate_nerf_run(dir, le);
+    return scores_of(dir, o_.decoder);
   }
 
   nlohmann::json feature_scores(const std::string& dir, bool resume) const {
@@ -267,7 +260,7 @@ class CompareRun {
       l.sh_degree = 0;  // Feature 3DGS's features are view-independent
       train_latent_field(l);
     }
-    return latent_scores(dir, o_.decoder);
+    return scores_of(dir, o_.decoder);
   }
 
   nlohmann::json rgb_scores(const CompareMethod& m, const std::string& dir, bool resume) const {
@@ -286,9 +279,7 @@ class CompareRun {
       b.task = "train-" + m.name;
       train_rgb_field(b);
     }
-    RgbEvalOptions re;
-    re.lpips_weights = o_.lpips_weights;
-    return evaluate_rgb_run(dir, re);
+    return scores_of(dir, "");
   }
 
   const CompareOptions& o_;

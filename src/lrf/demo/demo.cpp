@@ -9,6 +9,7 @@
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/pipeline/pipeline.h"
 #include "lrf/scene/synthetic_scene.h"
@@ -93,7 +94,7 @@ DemoResult run_demo(const DemoOptions& o) {
     // The paper's full method on the judged scene: the Stage I field refined through the Stage III decoder.
     const std::string field =
         (fs::path(p.out) / "fields" / (std::string(kJudgedScene.name) + "-ft-refined")).string();
-    auto frames = FieldFrames::open(field);
+    auto frames = open_field_frames(field);
     camera_path::PathOptions po;
     po.frames = o.video_frames;
     const auto path = camera_path::make_path(frames->scene(), camera_path::PathKind::orbit, po);

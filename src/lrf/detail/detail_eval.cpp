@@ -9,6 +9,7 @@
 #include "lrf/core/state_dict.h"
 #include "lrf/detail/detail_frames.h"
 #include "lrf/eval/lpips.h"
+#include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/test_view_scores.h"
 
 namespace fs = std::filesystem;
@@ -34,7 +35,7 @@ nlohmann::json detail_options_json(const DetailOptions& d) {
 
 nlohmann::json evaluate_with_detail(const std::string& run, const std::string& result_dir,
                                     const DetailEvalOptions& options, const nlohmann::json* base_metrics) {
-  DetailFrames frames(FieldFrames::open(run, options.decoder), options.detail);
+  DetailFrames frames(open_field_frames(run, options.decoder), options.detail);
   log_info(frames.describe());
   std::optional<Lpips> lpips;
   if (!options.lpips_weights.empty())

@@ -15,7 +15,7 @@ namespace lrf::detail {
 
 DetailFrames::DetailFrames(std::unique_ptr<FieldFrames> frames, const DetailOptions& options)
     : frames_(std::move(frames)), options_(options) {
-  if (frames_->kind() == FieldKind::latent_nerf)
+  if (!frames_->has_depth())
     fail("the detail pass needs a splat field's depth; a latent NeRF has none here");
   if (frames_->scene().train_indices.empty()) fail(frames_->scene().root, "the scene has no training views to borrow from");
   if (options_.views < 1) fail_usage("--detail-views must be at least 1");

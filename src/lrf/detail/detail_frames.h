@@ -14,12 +14,14 @@ namespace lrf::detail {
 
 class DetailFrames : public FieldFrames {
  public:
-  // Throws lrf::Error when `frames` is a latent NeRF (no depth) or its scene has no training views. With
+  // Throws lrf::Error when `frames` have no depth (a latent NeRF) or its scene has no training views. With
   // options.calibration_views > 0 the decoded weight is chosen here, on that many training views
   // (detail_calibration.h); a field that does best without the photographs then renders as it is.
   DetailFrames(std::unique_ptr<FieldFrames> frames, const DetailOptions& options);
 
   FieldKind kind() const override { return frames_->kind(); }
+  bool latent() const override { return frames_->latent(); }
+  bool has_depth() const override { return frames_->has_depth(); }
   const Scene& scene() const override { return frames_->scene(); }
   int size_multiple() const override { return frames_->size_multiple(); }
   std::string describe() const override;

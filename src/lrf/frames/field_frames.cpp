@@ -47,6 +47,8 @@ class RgbFrames : public FieldFrames {
  public:
   explicit RgbFrames(const std::string& run) : run_(splat::open_field_run(run)) {}
   FieldKind kind() const override { return FieldKind::rgb; }
+  bool latent() const override { return false; }
+  bool has_depth() const override { return true; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 1; }
   std::string describe() const override {
@@ -97,6 +99,8 @@ class LatentFrames : public FieldFrames {
     ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
   }
   FieldKind kind() const override { return FieldKind::latent; }
+  bool latent() const override { return true; }
+  bool has_depth() const override { return true; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 8; }
   std::string describe() const override {
@@ -124,6 +128,8 @@ class NerfFrames : public FieldFrames {
     ae_ = load_autoencoder(run_.autoencoder, run_.encoder, decoder_);
   }
   FieldKind kind() const override { return FieldKind::latent_nerf; }
+  bool latent() const override { return true; }
+  bool has_depth() const override { return false; }
   const Scene& scene() const override { return run_.scene; }
   int size_multiple() const override { return 8; }
   std::string describe() const override {
@@ -147,12 +153,14 @@ class NerfFrames : public FieldFrames {
 
 }  // namespace
 
-std::unique_ptr<FieldFrames> FieldFrames::open(const std::string& run, const std::string& decoder) {
-  const auto kind = field_kind_of(run);
-  if (kind == FieldKind::latent_nerf) return std::make_unique<NerfFrames>(run, decoder);
-  if (kind == FieldKind::latent) return std::make_unique<LatentFrames>(run, decoder);
-  if (!decoder.empty()) fail(run, "--decoder applies to latent fields; this is an RGB field");
-  return std::make_unique<RgbFrames>(run);
+std::unique_ptr<FieldFrames> rgb_field_frames(const std::string& run) { return std::make_unique<RgbFrames>(run); }
+
+std::unique_ptr<FieldFrames> latent_field_frames(const std::string& run, const std::string& decoder) {
+  return std::make_unique<LatentFrames>(run, decoder);
+}
+
+std::unique_ptr<FieldFrames> nerf_field_frames(const std::string& run, const std::string& decoder) {
+  return std::make_unique<NerfFrames>(run, decoder);
 }
 
 }  // namespace lrf

@@ -3,7 +3,7 @@
 // latent field (or a feature field lifted to the latent) and a latent NeRF are rendered at latent
 // resolution (the camera's size / 8) and decoded, by the decoder a refined field was fitted through (as
 // lrf eval and lrf render use it), the autoencoder's, or an override. Used by camera-path videos and by
-// the viewer's server.
+// the viewer's server. Which kind a folder holds is told by field_kinds/field_type.h (open_field_frames).
 #include <memory>
 #include <string>
 
@@ -22,15 +22,13 @@ struct FrameTiming {
 
 class FieldFrames {
  public:
-  // Opens an output folder of lrf train or lrf refine (or a method's folder of lrf compare). `decoder`
-  // replaces a latent field's or NeRF's decoder (Stage III weights); it is refused for RGB fields. Throws
-  // lrf::Error naming the file on a bad folder.
-  static std::unique_ptr<FieldFrames> open(const std::string& run, const std::string& decoder = "");
   virtual ~FieldFrames() = default;
 
   virtual FieldKind kind() const = 0;
   // Frames are decoded from rendered latents (every kind but rgb).
-  bool latent() const { return kind() != FieldKind::rgb; }
+  virtual bool latent() const = 0;
+  // depth() gives the field's surface (splat fields; a latent NeRF has none here).
+  virtual bool has_depth() const = 0;
   // The scene at the field's training resolution (latent fields: cropped to multiples of 8).
   virtual const Scene& scene() const = 0;
   // Frame sizes must be multiples of this (8 for latent fields: the decoder upsamples by 8).
@@ -46,5 +44,12 @@ class FieldFrames {
   // at any resolution even when their features were fitted at latent resolution.
   virtual cv::Mat depth(const Camera& camera) = 0;
 };
+
+// The frames of each kind's output folder (lrf train or lrf refine, or a method's folder of lrf compare).
+// `decoder` replaces a latent field's or NeRF's decoder (Stage III weights). Throw lrf::Error naming the
+// file on a bad folder.
+std::unique_ptr<FieldFrames> rgb_field_frames(const std::string& run);
+std::unique_ptr<FieldFrames> latent_field_frames(const std::string& run, const std::string& decoder);
+std::unique_ptr<FieldFrames> nerf_field_frames(const std::string& run, const std::string& decoder);
 
 }  // namespace lrf
