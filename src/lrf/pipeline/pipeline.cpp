@@ -15,6 +15,7 @@
 #include "lrf/eval/table.h"
 #include "lrf/finetune/pair_batches.h"
 #include "lrf/pipeline/pipeline_paths.h"
+#include "lrf/pipeline/pipeline_plan.h"
 #include "lrf/pipeline/pipeline_report.h"
 #include "lrf/pipeline/pipeline_scenes.h"
 #include "lrf/pipeline/pipeline_steps.h"
@@ -63,82 +64,43 @@ void parse_shard(const std::string& text, PipelineOptions* options) {
 
 namespace {
 
-// One shard's share of the per-scene steps (see run_pipeline in pipeline.h).
-nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
-  const auto& resolution = scenes.used;
-  const std::string me = "shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
-  nlohmann::json done = nlohmann::json::array(), left = nlohmann::json::array();
-  int unit = 0;
-  // Runs `work` if unit number `unit` is this shard's; `work` returns what it left undone ("" if nothing).
-  auto run_unit = [&](const std::string& name, const std::function<std::string()>& work) {
-    if (unit++ % o.shard_count != o.shard_index) return;
-    log_info("== " + me + ": " + name);
-    const std::string undone = work();
-    if (undone.empty()) {
-      done.push_back(name);
-    } else {
-      log_info(me + ": left " + name + " for later: " + undone);
-      left.push_back(name + ": " + undone);
-    }
-  };
-  const std::string encoder = paths.encoder();
-  const bool encoder_ready = encoder_finished(encoder_options(o, scenes, paths));
-  std::vector<std::string> stock_fields, ft_fields;
-  for (const auto& s : scenes.train) {
-    stock_fields.push_back(paths.field(s, "stock"));
-    ft_fields.push_back(paths.field(s, "ft"));
-  }
-  const bool decoder_stock_ready = decoder_finished(decoder_options(o, stock_fields, "", paths.decoder("stock")));
-  const bool decoder_ft_ready = decoder_finished(decoder_options(o, ft_fields, encoder, paths.decoder("ft")));
-  const std::string no_encoder = "needs the Stage I encoder (run the unsharded command)";
+// What a unit needs that is not finished yet, in words ("" when it can run).
+std::string missing(const UnitNeeds& needs, const UnitNeeds& ready) {
+  std::string m;
+  if (needs.encoder && !ready.encoder) m = "the Stage I encoder";
+  if (needs.decoder_stock && !ready.decoder_stock) m += (m.empty() ? "" : " and ") + std::string("the Stage III stock decoder");
+  if (needs.decoder_ft && !ready.decoder_ft)
+    m += (m.empty() ? "" : " and ") + std::string("the Stage III decoder of the Stage I fields");
+  return m;
+}
 
+// One shard's share of the per-scene units (see run_pipeline in pipeline.h): every n-th of the plan, less
+// those that need a stage the unsharded command makes.
+nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
+  const std::string me = "shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
+  std::vector<std::string> train_stock, train_ft;
   for (const auto& s : scenes.train) {
-    run_unit("field " + paths.field(s, "stock"), [&] {
-      ensure_latent_field(o, s, resolution.at(s), 0, paths.field(s, "stock"), "");
-      return std::string();
-    });
-    run_unit("field " + paths.field(s, "ft"), [&] {
-      if (!encoder_ready) return no_encoder;
-      ensure_latent_field(o, s, resolution.at(s), 0, paths.field(s, "ft"), encoder);
-      return std::string();
-    });
+    train_stock.push_back(paths.field(s, "stock"));
+    train_ft.push_back(paths.field(s, "ft"));
   }
-  for (const auto& s : scenes.eval) {
-    const std::string stock_field = paths.eval_field(s, "stock"), ft_field = paths.eval_field(s, "ft");
-    run_unit("stock rows of " + paths.eval_label(s), [&] {
-      ensure_latent_field(o, s, resolution.at(s), o.eval_train_views, stock_field, "");
-      ensure_latent_eval(o, stock_field, "", paths.eval(s, "stock"));
-      if (o.refine_rows) {
-        const std::string refined = paths.eval_field(s, "stock-refined");
-        refine_eval_field(o, stock_field, "", refined);
-        ensure_latent_eval(o, refined, "", paths.eval(s, "stock+refine"));
-      }
-      if (!decoder_stock_ready) return std::string("the decoder row needs the Stage III stock decoder");
-      ensure_latent_eval(o, stock_field, paths.decoder("stock"), paths.eval(s, "decoder"));
-      return std::string();
-    });
-    run_unit("Stage I rows of " + paths.eval_label(s), [&] {
-      if (!encoder_ready) return no_encoder;
-      ensure_latent_field(o, s, resolution.at(s), o.eval_train_views, ft_field, encoder);
-      ensure_latent_eval(o, ft_field, "", paths.eval(s, "encoder"));
-      if (!decoder_ft_ready) return std::string("the both rows need the Stage III decoder of the Stage I fields");
-      ensure_latent_eval(o, ft_field, paths.decoder("ft"), paths.eval(s, "both"));
-      if (o.refine_rows) {
-        const std::string refined = paths.eval_field(s, "ft-refined");
-        refine_eval_field(o, ft_field, paths.decoder("ft"), refined);
-        const nlohmann::json scores = ensure_latent_eval(o, refined, "", paths.eval(s, "both+refine"));
-        if (o.detail_row) ensure_detail_eval(o, refined, paths.eval(s, "both+refine+detail"), scores);
-      }
-      return std::string();
-    });
-    for (const RgbBaseline& b : rgb_baselines(o)) {
-      run_unit(std::string(b.row) + " of " + paths.eval_label(s), [&] {
-        const std::string rgb = paths.eval_field(s, b.tag);
-        ensure_rgb_field(o, s, resolution.at(s), rgb, b);
-        ensure_rgb_eval(o, rgb);
-        return std::string();
-      });
+  const UnitNeeds ready{encoder_finished(encoder_options(o, scenes, paths)),
+                        decoder_finished(decoder_options(o, train_stock, "", paths.decoder("stock"))),
+                        decoder_finished(decoder_options(o, train_ft, paths.encoder(), paths.decoder("ft")))};
+  std::map<std::string, EvaluatedScene> scored;  // the tables are the unsharded command's
+  std::vector<PipelineUnit> units = training_field_units(o, scenes, paths);
+  for (PipelineUnit& u : evaluation_units(o, scenes, paths, &scored)) units.push_back(std::move(u));
+  nlohmann::json done = nlohmann::json::array(), left = nlohmann::json::array();
+  for (size_t i = 0; i < units.size(); ++i) {
+    if (static_cast<int>(i % static_cast<size_t>(o.shard_count)) != o.shard_index) continue;
+    const std::string needs = missing(units[i].needs, ready);
+    if (!needs.empty()) {
+      log_info(me + ": left " + units[i].name + " for later: it needs " + needs);
+      left.push_back(units[i].name + ": needs " + needs + " (run the unsharded command)");
+      continue;
     }
+    log_info("== " + me + ": " + units[i].name);
+    units[i].work();
+    done.push_back(units[i].name);
   }
   log_info(me + ": " + std::to_string(done.size()) + " unit(s) done, " + std::to_string(left.size()) +
            " left for the unsharded command");
@@ -250,12 +212,10 @@ TrainedStages train_stages(const PipelineOptions& o, const PipelineScenes& scene
   ensure_encoder(o, scenes, paths);
   TrainedStages trained;
   trained.encoder = paths.encoder();
+  for (const PipelineUnit& unit : training_field_units(o, scenes, paths)) unit.work();
   for (const auto& s : scenes.train) {
-    for (const auto& [tag, encoder] : {std::pair<std::string, std::string>{"stock", ""}, {"ft", trained.encoder}}) {
-      const std::string dir = paths.field(s, tag);
-      ensure_latent_field(o, s, scenes.used.at(s), 0, dir, encoder);  // Stage III learns from every view
-      trained.fields[tag].push_back(dir);
-    }
+    trained.fields["stock"].push_back(paths.field(s, "stock"));
+    trained.fields["ft"].push_back(paths.field(s, "ft"));
   }
   ensure_decoder(o, trained.fields["stock"], "", paths.decoder("stock"));
   ensure_decoder(o, trained.fields["ft"], trained.encoder, paths.decoder("ft"));
@@ -292,50 +252,6 @@ void add_photos(const std::string& scene_root, const SceneResolution& resolution
     scene->photos.push_back({scene_data.views[static_cast<size_t>(i)].name, scene_data.load_image(i)});
 }
 
-// One evaluation scene: its fields with both encoders (and the RGB baselines), the refined fields, and
-// every row's scores, each made or reused.
-EvaluatedScene evaluate_scene(const PipelineOptions& o, const std::string& s, const SceneResolution& resolution,
-                              const PipelinePaths& paths) {
-  EvaluatedScene scene;
-  scene.label = paths.eval_label(s);
-  const std::string stock_field = paths.eval_field(s, "stock"), ft_field = paths.eval_field(s, "ft");
-  ensure_latent_field(o, s, resolution, o.eval_train_views, stock_field, "");
-  ensure_latent_field(o, s, resolution, o.eval_train_views, ft_field, paths.encoder());
-  for (const RgbBaseline& b : rgb_baselines(o)) {
-    const std::string rgb = paths.eval_field(s, b.tag);
-    ensure_rgb_field(o, s, resolution, rgb, b);
-    scene.scores[b.row] = ensure_rgb_eval(o, rgb);
-    scene.image_dirs[b.row] = (fs::path(rgb) / "eval").string();
-  }
-  // Each row's field and decoder; a refined field is decoded by the decoder it was refined through.
-  std::map<std::string, std::pair<std::string, std::string>> latent_rows = {
-      {"stock", {stock_field, ""}},
-      {"encoder", {ft_field, ""}},
-      {"decoder", {stock_field, paths.decoder("stock")}},
-      {"both", {ft_field, paths.decoder("ft")}}};
-  if (o.refine_rows) {
-    const std::string stock_refined = paths.eval_field(s, "stock-refined");
-    const std::string ft_refined = paths.eval_field(s, "ft-refined");
-    refine_eval_field(o, stock_field, "", stock_refined);
-    refine_eval_field(o, ft_field, paths.decoder("ft"), ft_refined);
-    latent_rows["stock+refine"] = {stock_refined, ""};
-    latent_rows["both+refine"] = {ft_refined, ""};
-  }
-  for (const auto& [row, field_and_decoder] : latent_rows) {
-    const std::string dir = paths.eval(s, row);
-    scene.scores[row] = ensure_latent_eval(o, field_and_decoder.first, field_and_decoder.second, dir);
-    scene.image_dirs[row] = (fs::path(dir) / "eval").string();
-  }
-  if (o.refine_rows && o.detail_row) {
-    const std::string dir = paths.eval(s, "both+refine+detail");
-    scene.scores["both+refine+detail"] =
-        ensure_detail_eval(o, latent_rows["both+refine"].first, dir, scene.scores["both+refine"]);
-    scene.image_dirs["both+refine+detail"] = (fs::path(dir) / "eval").string();
-  }
-  add_photos(s, resolution, &scene);
-  return scene;
-}
-
 }  // namespace
 
 nlohmann::json run_pipeline(const PipelineOptions& o) {
@@ -366,8 +282,15 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
                          {"train_fields", trained.fields}};
   write_json_file(record_path, record);
 
+  std::map<std::string, EvaluatedScene> scored;
+  for (const PipelineUnit& unit : evaluation_units(o, scenes, paths, &scored)) unit.work();
   std::vector<EvaluatedScene> evaluated;
-  for (const auto& s : scenes.eval) evaluated.push_back(evaluate_scene(o, s, scenes.used.at(s), paths));
+  for (const auto& s : scenes.eval) {
+    EvaluatedScene& scene = scored[s];
+    scene.label = paths.eval_label(s);
+    add_photos(s, scenes.used.at(s), &scene);
+    evaluated.push_back(std::move(scene));
+  }
   const StageTimes times = stage_times_of(o, scenes, paths, trained.fields);
   const ReportTable stage_table = times.table();
   write_table_csv(paths.output("stages", "csv"), stage_table.header, stage_table.rows);
