@@ -6,6 +6,7 @@
 #include "lrf/compare/compare_methods.h"
 #include "lrf/compare/compare_plan.h"
 #include "lrf/compare/compare_report.h"
+#include "lrf/core/artefact.h"
 #include "lrf/core/error.h"
 #include "lrf/detail/detail_eval.h"
 #include "lrf/field_kinds/field_type.h"
@@ -50,15 +51,13 @@ nlohmann::json compare_settings(const CompareOptions& o) {
   return settings;
 }
 
-void require_same_settings(const std::string& summary_path, const nlohmann::json& wanted) {
+// The methods in a compare folder share its settings (compare.json): a folder made with others is refused.
+void require_compare_settings(const std::string& summary_path, const nlohmann::json& wanted) {
   if (!fs::exists(summary_path)) return;
   const nlohmann::json recorded = read_json_file(summary_path).value("settings", nlohmann::json());
   if (!recorded.is_object()) return;  // written before compare recorded its settings
-  const std::string differ = differing_settings(recorded, wanted);
-  if (!differ.empty()) {
-    fail(summary_path, "this folder holds methods made with other settings:" + differ +
-                           "; use another output folder, or --force to retrain every method");
-  }
+  require_same_settings(summary_path, recorded, wanted, "this folder holds methods",
+                        "use another output folder, or --force to retrain every method");
 }
 
 // A finished or interrupted feature-gs field is reused or resumed only with the feature count asked for now.
@@ -308,7 +307,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
   const FolderLock lock(o.out);  // each method's folder below is locked again by its own training job
   const std::string summary_path = (fs::path(o.out) / "compare.json").string();
   const nlohmann::json settings = compare_settings(o);
-  if (!o.force) require_same_settings(summary_path, settings);
+  if (!o.force) require_compare_settings(summary_path, settings);
   const SceneOptions so = compare_scene_options(o);
   const Scene scene = load_scene(o.scene, so);
 

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <functional>
 
+#include "lrf/core/artefact.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/cache_key.h"
 #include "lrf/core/error.h"
@@ -51,21 +52,24 @@ nlohmann::json recorded_min_track_length(const nlohmann::json& config) {
   return init.value("triangulation", nlohmann::json::object()).value("min_track_length", nlohmann::json());
 }
 
-// True if DIR holds a finished field made with these settings; throws if it holds one made with others.
-bool reusable_field(const std::string& dir, const nlohmann::json& wanted) {
-  if (!splat::run_finished(dir)) return false;
-  const std::string record = (fs::path(dir) / "config.json").string();
-  const nlohmann::json config = read_json_file(record);
-  const nlohmann::json& options = config.at("options");
-  const nlohmann::json recorded = field_settings(config.value("scene", std::string()),
-                                                 config.value("images", std::string()), config.value("downscale", 0),
-                                                 config.value("few_shot_views", 0),
-                                                 options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
-                                                 config.value("autoencoder_identity", std::string()),
-                                                 recorded_min_track_length(config));
-  require_same_settings(record, recorded, wanted, "the field", dir);
-  log_info("reusing field " + dir);
-  return true;
+// A field's life in the pipeline folder: reused when finished with `wanted` (the settings that decide it).
+ArtefactLife field_life(const std::string& dir, nlohmann::json wanted) {
+  ArtefactLife life;
+  life.what = "the field";
+  life.record = (fs::path(dir) / "config.json").string();
+  life.remedy = "use another output folder or remove " + dir;
+  life.finished = [dir] { return splat::run_finished(dir); };
+  life.recorded = [record = life.record] {
+    const nlohmann::json config = read_json_file(record);
+    const nlohmann::json& options = config.at("options");
+    return field_settings(config.value("scene", std::string()), config.value("images", std::string()),
+                          config.value("downscale", 0), config.value("few_shot_views", 0),
+                          options.value("iters", int64_t(0)), options.value("seed", uint64_t(0)),
+                          config.value("autoencoder_identity", std::string()), recorded_min_track_length(config));
+  };
+  life.wanted = std::move(wanted);
+  life.resumable = [dir] { return fs::exists(splat::checkpoint_path(dir)); };
+  return life;
 }
 
 // The recorded options of a fine-tuning step, without the checkpoint interval, which does not change the result.
@@ -75,6 +79,32 @@ nlohmann::json finetune_settings(nlohmann::json options) {
   // they existed still match); without them every scene is at its default, which is compared as null.
   if (!options.contains("scene_resolutions")) options["scene_resolutions"] = nullptr;
   return options;
+}
+
+// A fine-tuned encoder's or decoder's life: `out` and its run record, compared by their recorded options.
+ArtefactLife finetune_life(const std::string& what, const std::string& out, const std::string& record,
+                           const std::string& checkpoint, const nlohmann::json& options) {
+  ArtefactLife life;
+  life.what = what;
+  life.record = record;
+  life.remedy = "use another output folder or remove " + fs::path(out).parent_path().string();
+  life.finished = [out, record] { return fs::exists(out) && fs::exists(record); };
+  life.recorded = [record] {
+    return finetune_settings(read_json_file(record).value("options", nlohmann::json::object()));
+  };
+  life.wanted = finetune_settings(options);
+  life.resumable = [checkpoint] { return fs::exists(checkpoint); };
+  return life;
+}
+
+ArtefactLife encoder_life(const EncoderFinetuneOptions& e) {
+  return finetune_life("the Stage I encoder", e.out, finetune_record_path(e.out), finetune_checkpoint_path(e.out),
+                       encoder_finetune_options_json(e));
+}
+
+ArtefactLife decoder_life(const DecoderFinetuneOptions& d) {
+  return finetune_life("the Stage III decoder", d.out, decoder_record_path(d.out), decoder_checkpoint_path(d.out),
+                       decoder_finetune_options_json(d));
 }
 
 // A row's finished scores, reused only if they hold every metric this version reports: rows scored before
@@ -114,42 +144,31 @@ RgbEvalOptions rgb_eval_options(const PipelineOptions& o) {
 
 }  // namespace
 
-// Refuses to reuse a finished step of the pipeline that was made with other settings than this run's,
-// naming each setting of `wanted` that the recorded ones lack or differ in.
-void require_same_settings(const std::string& record, const nlohmann::json& recorded, const nlohmann::json& wanted,
-                           const std::string& what, const std::string& folder) {
-  const std::string differ = differing_settings(recorded, wanted);
-  if (!differ.empty()) {
-    fail(record, what + " in this folder was made with other settings than the pipeline's:" + differ +
-                     "; use another output folder or remove " + folder);
-  }
-}
-
-
 void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
                          int train_views, const std::string& dir, const std::string& encoder) {
-  if (reusable_field(dir, wanted_field_settings(scene, resolution, train_views, o,
-                                                autoencoder_identity(o.autoencoder, encoder)))) {
-    return;
-  }
-  LatentTrainOptions l;
-  l.scene = scene;
-  l.out = dir;
-  l.scene_options.images_dir = resolution.images;
-  l.scene_options.downscale = resolution.downscale;
-  l.scene_options.train_views = train_views;
-  l.autoencoder = o.autoencoder;
-  l.encoder = encoder;
-  l.cache_dir = o.cache_dir;
-  l.iters = o.field_iters;
-  l.seed = o.seed;
-  l.resume = fs::exists(splat::checkpoint_path(dir));
-  l.force = !l.resume;
-  log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
-           " steps on the " + (encoder.empty() ? "stock" : "Stage I") + " encoder's latents of " + scene +
-           " (" + (resolution.images.empty() ? "images" : resolution.images) + " downscaled " +
-           std::to_string(resolution.downscale) + "x)");
-  train_latent_field(l);
+  ArtefactLife life =
+      field_life(dir, wanted_field_settings(scene, resolution, train_views, o, autoencoder_identity(o.autoencoder, encoder)));
+  life.make = [&](bool resume) {
+    LatentTrainOptions l;
+    l.scene = scene;
+    l.out = dir;
+    l.scene_options.images_dir = resolution.images;
+    l.scene_options.downscale = resolution.downscale;
+    l.scene_options.train_views = train_views;
+    l.autoencoder = o.autoencoder;
+    l.encoder = encoder;
+    l.cache_dir = o.cache_dir;
+    l.iters = o.field_iters;
+    l.seed = o.seed;
+    l.resume = resume;
+    l.force = !resume;
+    log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
+             " steps on the " + (encoder.empty() ? "stock" : "Stage I") + " encoder's latents of " + scene +
+             " (" + (resolution.images.empty() ? "images" : resolution.images) + " downscaled " +
+             std::to_string(resolution.downscale) + "x)");
+    train_latent_field(l);
+  };
+  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing field " + dir);
 }
 
 std::vector<RgbBaseline> rgb_baselines(const PipelineOptions& o) {
@@ -167,25 +186,28 @@ void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const 
                       const std::string& dir, const RgbBaseline& baseline) {
   const int factor = baseline.factor;
   const bool mip = baseline.mip;
-  if (reusable_field(dir, wanted_field_settings(scene, resolution, o.eval_train_views, o, ""))) return;
-  RgbTrainOptions b;
-  b.scene = scene;
-  b.scene_options.images_dir = resolution.images;
-  b.scene_options.downscale = resolution.downscale;
-  b.scene_options.train_views = o.eval_train_views;
-  b.scene_options.crop_to_multiple_of_8 = true;  // the latent fields' views
-  b.out = dir;
-  b.factor = factor;
-  b.iters = o.field_iters;
-  b.mip = mip;
-  b.seed = o.seed;
-  b.resume = fs::exists(splat::checkpoint_path(dir));
-  b.force = !b.resume;
-  b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
-  log_info("== RGB field " + dir + (b.resume ? " (resuming)" : "") + ": " + std::to_string(b.iters) + " steps on " +
-           scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
-           (mip ? ", with Mip-Splatting's filters" : ""));
-  train_rgb_field(b);
+  ArtefactLife life = field_life(dir, wanted_field_settings(scene, resolution, o.eval_train_views, o, ""));
+  life.make = [&](bool resume) {
+    RgbTrainOptions b;
+    b.scene = scene;
+    b.scene_options.images_dir = resolution.images;
+    b.scene_options.downscale = resolution.downscale;
+    b.scene_options.train_views = o.eval_train_views;
+    b.scene_options.crop_to_multiple_of_8 = true;  // the latent fields' views
+    b.out = dir;
+    b.factor = factor;
+    b.iters = o.field_iters;
+    b.mip = mip;
+    b.seed = o.seed;
+    b.resume = resume;
+    b.force = !resume;
+    b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
+    log_info("== RGB field " + dir + (b.resume ? " (resuming)" : "") + ": " + std::to_string(b.iters) + " steps on " +
+             scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
+             (mip ? ", with Mip-Splatting's filters" : ""));
+    train_rgb_field(b);
+  };
+  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing field " + dir);
 }
 
 nlohmann::json ensure_rgb_eval(const PipelineOptions& o, const std::string& dir) {
@@ -224,28 +246,20 @@ EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const PipelineS
   return e;
 }
 
-// True if Stage I finished with these options; throws if it finished with others.
-bool encoder_finished(const EncoderFinetuneOptions& e) {
-  const std::string record = finetune_record_path(e.out);
-  if (!fs::exists(e.out) || !fs::exists(record)) return false;
-  require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
-                        finetune_settings(encoder_finetune_options_json(e)), "the Stage I encoder",
-                        fs::path(e.out).parent_path().string());
-  return true;
-}
+bool encoder_finished(const EncoderFinetuneOptions& e) { return finished_as_wanted(encoder_life(e)); }
 
 void ensure_encoder(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
   EncoderFinetuneOptions e = encoder_options(o, scenes, paths);
-  if (encoder_finished(e)) {
-    log_info("reusing Stage I encoder " + e.out);
-    return;
-  }
-  e.resume = fs::exists(finetune_checkpoint_path(e.out));
-  e.force = !e.resume;
-  log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : "") + ": " + std::to_string(e.steps) +
-           " steps of " + std::to_string(e.batch.pairs) + " view pairs in " + std::to_string(e.batch.crop) +
-           "-pixel crops, on " + std::to_string(e.scenes.size()) + " training scene(s)");
-  finetune_encoder(e);
+  ArtefactLife life = encoder_life(e);
+  life.make = [&e](bool resume) {
+    e.resume = resume;
+    e.force = !resume;
+    log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : "") + ": " + std::to_string(e.steps) +
+             " steps of " + std::to_string(e.batch.pairs) + " view pairs in " + std::to_string(e.batch.crop) +
+             "-pixel crops, on " + std::to_string(e.scenes.size()) + " training scene(s)");
+    finetune_encoder(e);
+  };
+  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage I encoder " + e.out);
 }
 
 DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vector<std::string>& fields,
@@ -264,28 +278,20 @@ DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vect
   return d;
 }
 
-// True if this Stage III decoder finished with these options; throws if it finished with others.
-bool decoder_finished(const DecoderFinetuneOptions& d) {
-  const std::string record = decoder_record_path(d.out);
-  if (!fs::exists(d.out) || !fs::exists(record)) return false;
-  require_same_settings(record, finetune_settings(read_json_file(record).value("options", nlohmann::json::object())),
-                        finetune_settings(decoder_finetune_options_json(d)), "the Stage III decoder",
-                        fs::path(d.out).parent_path().string());
-  return true;
-}
+bool decoder_finished(const DecoderFinetuneOptions& d) { return finished_as_wanted(decoder_life(d)); }
 
 void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fields, const std::string& encoder,
                     const std::string& out) {
   DecoderFinetuneOptions d = decoder_options(o, fields, encoder, out);
-  if (decoder_finished(d)) {
-    log_info("reusing Stage III decoder " + out);
-    return;
-  }
-  d.resume = fs::exists(decoder_checkpoint_path(out));
-  d.force = !d.resume;
-  log_info("== Stage III " + out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
-           " steps on " + std::to_string(d.fields.size()) + " field(s)");
-  finetune_decoder(d);
+  ArtefactLife life = decoder_life(d);
+  life.make = [&d, &out](bool resume) {
+    d.resume = resume;
+    d.force = !resume;
+    log_info("== Stage III " + out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
+             " steps on " + std::to_string(d.fields.size()) + " field(s)");
+    finetune_decoder(d);
+  };
+  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage III decoder " + out);
 }
 
 nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,

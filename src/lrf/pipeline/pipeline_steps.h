@@ -15,10 +15,6 @@
 
 namespace lrf {
 
-// Throws naming `record` and every setting of `wanted` that `recorded` lacks or differs in.
-void require_same_settings(const std::string& record, const nlohmann::json& recorded, const nlohmann::json& wanted,
-                           const std::string& what, const std::string& folder);
-
 // A latent field of `scene` at `resolution` (train_views > 0: a K-view split) on `encoder`'s latents ("": stock).
 void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
                          int train_views, const std::string& dir, const std::string& encoder);

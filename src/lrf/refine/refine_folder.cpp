@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/core/artefact.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
@@ -22,11 +23,10 @@ bool ensure_refined_field(RefineOptions options, const std::string& what, const 
     const nlohmann::json refine = recorded.value("refine", nlohmann::json::object());
     const int64_t done = recorded.value("result", nlohmann::json::object()).value("steps", int64_t(0));
     const bool extendable = r.lr_final == 1 && done < r.steps;
-    const std::string differ =
-        differing_settings({{"refine", refine.value("resume_key", nlohmann::json())},
-                            {"steps", extendable ? int64_t(r.steps) : done}},
-                           {{"refine", refine_resume_key(r)}, {"steps", r.steps}});
-    if (!differ.empty()) fail(config, what + " in this folder was made with other settings:" + differ + "; " + remedy);
+    require_same_settings(config,
+                          {{"refine", refine.value("resume_key", nlohmann::json())},
+                           {"steps", extendable ? int64_t(r.steps) : done}},
+                          {{"refine", refine_resume_key(r)}, {"steps", r.steps}}, what + " in this folder was", remedy);
     if (!extendable) {
       log_info("reusing refined field " + r.out);
       return false;
