@@ -10,28 +10,18 @@
 #include "lrf/points/initial_points.h"
 #include "lrf/presets/presets.h"
 #include "lrf/scene/scene.h"
-#include "lrf/splat/train/densify.h"
+#include "lrf/splat/run/fit_options.h"
 
 namespace lrf {
 
-struct FieldTrainRequest {
-  std::string scene;
+// The fit every Gaussian field shares (scene, out, steps, SH degree, seed, densification, checkpoints,
+// initial points, preset), with every kind's own settings beside it.
+struct FieldTrainRequest : splat::GaussianFitOptions {
   std::string space = "rgb";
-  std::string out;
-  SceneOptions scene_options;
-  int64_t iters = 30000;
   bool iters_set = false;
-  int sh_degree = 3;
   bool sh_degree_set = false;
   bool mip = false;
-  uint64_t seed = 0;
-  int64_t max_gaussians = 0;
-  double densify_grad = splat::DensifyOptions{}.grad_threshold;
   bool inria_rates = false;  // latent: no faster means and SH in runs under 7000 steps
-  bool resume = false;
-  bool force = false;
-  int64_t checkpoint_every = 1000;
-  bool sparse_adam = false;
   bool white_background = false;
   int coarse_factor = 1;       // rgb: > 1 trains the first steps on reduced views
   int64_t coarse_until = -1;   // the coarse phase's last step; -1: where densification ends
@@ -42,11 +32,9 @@ struct FieldTrainRequest {
   double rgb_guide = 0;
   int feature_dim = 0;  // > 0: a feature field (the feature-gs baseline)
   std::string cache_dir;
-  InitPointsOptions init_points;
   // latent-nerf
   int rays = 1024, samples = 32, hash_log2 = 17;
   bool nerf_option_set = false;  // one of the three above was given
-  std::string preset = kDefaultPreset;  // recorded, so that --resume can say when another is asked for
 };
 
 // `lrf train OUT --resume`: the run continues with its recorded settings; of `given`, only the step count

@@ -73,33 +73,22 @@ class LatentFieldType : public FieldType {
     if (o.coarse_factor != 1 || o.coarse_until != -1)
       fail_usage("--coarse-factor and --coarse-until apply to --space rgb");
     if (o.nerf_option_set) fail_usage("--rays, --samples and --hash-log2 apply to --space latent-nerf");
+    // A negative count is compare's "half the latent channels", met here only in a run being resumed.
+    if (o.feature_dim < 0 && !o.resume) fail_usage("--feature-dim must be 0 (a latent field) or a feature count");
+    // --test-list and --format are refused by the job itself (require_latent_scene_options).
+    if (o.scene_options.crop_to_multiple_of_8)
+      fail_usage("--crop8 does not apply to --space latent: latent views are always cropped to multiples of 8");
     LatentTrainOptions l;
-    l.scene = o.scene;
-    l.out = o.out;
+    static_cast<splat::GaussianFitOptions&>(l) = o;
+    l.init_points = points;
+    l.sh_degree = o.sh_degree_set ? o.sh_degree : kDefaultLatentShDegree;
     l.autoencoder = o.autoencoder;
     l.encoder = o.encoder;
     l.init = o.init;
     l.rgb_guide = o.rgb_guide;
     l.cache_dir = o.cache_dir;
-    l.scene_options = o.scene_options;
-    // A negative count is compare's "half the latent channels", met here only in a run being resumed.
-    if (o.feature_dim < 0 && !o.resume) fail_usage("--feature-dim must be 0 (a latent field) or a feature count");
     l.feature_dim = o.feature_dim;
-    // --test-list and --format are refused by the job itself (require_latent_scene_options).
-    if (o.scene_options.crop_to_multiple_of_8)
-      fail_usage("--crop8 does not apply to --space latent: latent views are always cropped to multiples of 8");
-    l.sh_degree = o.sh_degree_set ? o.sh_degree : kDefaultLatentShDegree;
-    l.iters = o.iters;
-    l.max_gaussians = o.max_gaussians;
-    l.densify_grad = o.densify_grad;
     l.short_run_rates = !o.inria_rates;
-    l.checkpoint_every = o.checkpoint_every;
-    l.seed = o.seed;
-    l.resume = o.resume;
-    l.force = o.force;
-    l.sparse_adam = o.sparse_adam;
-    l.init_points = points;
-    l.preset = o.preset;
     if (o.mip) fail_usage("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
     train_latent_field(l);
   }

@@ -22,24 +22,12 @@ namespace {
 
 RgbTrainOptions rgb_options(const FieldTrainRequest& o, const InitPointsOptions& points) {
   RgbTrainOptions r;
-  r.scene = o.scene;
-  r.out = o.out;
-  r.scene_options = o.scene_options;
-  r.iters = o.iters;
-  r.sh_degree = o.sh_degree;
+  static_cast<splat::GaussianFitOptions&>(r) = o;
+  r.init_points = points;
   r.mip = o.mip;
-  r.seed = o.seed;
-  r.max_gaussians = o.max_gaussians;
-  r.densify_grad = o.densify_grad;
-  r.checkpoint_every = o.checkpoint_every;
-  r.sparse_adam = o.sparse_adam;
   r.white_background = o.white_background;
   r.coarse_factor = o.coarse_factor;
   r.coarse_until = o.coarse_until;
-  r.init_points = points;
-  r.preset = o.preset;
-  r.resume = o.resume;
-  r.force = o.force;
   return r;
 }
 

@@ -18,6 +18,7 @@
 #include "lrf/scene/scene.h"
 #include "lrf/splat/gaussians.h"
 #include "lrf/splat/render_field.h"
+#include "lrf/splat/run/fit_options.h"
 #include "lrf/splat/train/densify.h"
 
 namespace lrf {
@@ -31,29 +32,22 @@ constexpr int kDefaultLatentShDegree = 1;
 // LatentTrainOptions::feature_dim asking for default_feature_dim(latent channels).
 constexpr int kHalfLatentChannels = -1;
 
-struct LatentTrainOptions {
-  std::string scene, out, autoencoder = "taef2", encoder, init = "latents", cache_dir;
-  // The image folder, downscale, test split and few-shot training views (train_views: K evenly spaced
-  // training views; 0 = all). The views are always centre-cropped to multiples of 8; a test list and a
-  // forced format are not read for latent fields yet.
-  SceneOptions scene_options;
+// A Gaussian field's fit with what a latent field adds. Its scene options' image folder, downscale, test
+// split and few-shot training views are read; the views are always centre-cropped to multiples of 8, and a
+// test list and a forced format are not read for latent fields yet.
+struct LatentTrainOptions : splat::GaussianFitOptions {
+  LatentTrainOptions() { sh_degree = kDefaultLatentShDegree; }
+  std::string autoencoder = "taef2", encoder, init = "latents", cache_dir;
   // > 0: the field carries 3 more channels fitted (times this weight) to the training images at latent
   // resolution, and drops them when written (prepare_latent_training's rgb_guide).
   double rgb_guide = 0;
-  int sh_degree = kDefaultLatentShDegree;
   // > 0: a feature field (the feature-gs baseline, src/lrf/feature/): the Gaussians carry this many
   // features, lifted to the latent channels by a 1x1 convolution trained with them. 0: a latent field.
   // kHalfLatentChannels: Feature 3DGS's default, half the autoencoder's latent channels.
   int feature_dim = 0;
-  int64_t iters = 30000, max_gaussians = 0, checkpoint_every = 1000;
-  double densify_grad = splat::DensifyOptions{}.grad_threshold;
   // A run shorter than 7000 steps moves its means and SH faster (splat::LearningRates::for_short_run);
   // false keeps Inria's rates.
   bool short_run_rates = true;
-  uint64_t seed = 0;
-  bool resume = false, force = false, sparse_adam = false;
-  InitPointsOptions init_points;  // where the initial Gaussians come from (SfM, triangulated, random, a file)
-  std::string preset = "default";  // the --preset the options came from, recorded for --resume
 };
 
 struct LatentTrainResult {

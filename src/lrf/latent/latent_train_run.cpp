@@ -23,14 +23,10 @@ namespace lrf {
 
 namespace {
 nlohmann::json options_json(const LatentTrainOptions& o) {
-  const SceneOptions& so = o.scene_options;
-  return {{"scene", o.scene},       {"out", o.out},           {"images", so.images_dir},
-          {"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init},
-          {"downscale", so.downscale}, {"test_every", so.test_every}, {"train_views", so.train_views},
-          {"feature_dim", o.feature_dim}, {"sh_degree", o.sh_degree}, {"rgb_guide", o.rgb_guide},
-          {"iters", o.iters},       {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"short_run_rates", o.short_run_rates}, {"seed", o.seed},
-          {"resume", o.resume},     {"force", o.force},       {"sparse_adam", o.sparse_adam},
-          {"checkpoint_every", o.checkpoint_every}, {"preset", o.preset}};
+  nlohmann::json j = splat::fit_options_json(o);
+  j.update({{"autoencoder", o.autoencoder}, {"encoder", o.encoder}, {"init", o.init}, {"feature_dim", o.feature_dim},
+            {"rgb_guide", o.rgb_guide}, {"short_run_rates", o.short_run_rates}});
+  return j;
 }
 }  // namespace
 
@@ -72,14 +68,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   }
   log_info("initial field: " + data.init_description);
 
-  TrainerOptions to;
-  to.iterations = o.iters;
-  to.sh_degree = o.sh_degree;
-  to.seed = o.seed;
-  to.sparse_adam = o.sparse_adam;
-  to.schedule = DensifySchedule::for_iterations(o.iters);
-  to.densify.max_gaussians = o.max_gaussians;
-  to.densify.grad_threshold = o.densify_grad;
+  TrainerOptions to = trainer_options(o);
   to.lr = o.short_run_rates ? LearningRates{}.for_short_run(o.iters) : LearningRates{};
   to.background = torch::zeros({feature_dim > 0 ? feature_dim : data.init.channels()});
   const double extent = scene.camera_extent();

@@ -37,16 +37,13 @@ void check_options(const RgbTrainOptions& o) {
 // finished fields (compare, pipeline) read.
 nlohmann::json options_json(const RgbTrainOptions& o) {
   const SceneOptions& so = o.scene_options;
-  return {{"scene", o.scene}, {"space", field_kind_name(FieldKind::rgb)}, {"out", o.out}, {"images", so.images_dir},
-          {"downscale", so.downscale}, {"test_every", so.test_every}, {"train_views", so.train_views},
-          {"test_list", so.test_list}, {"format", so.format}, {"crop8", so.crop_to_multiple_of_8},
-          {"factor", o.factor}, {"iters", o.iters}, {"sh_degree", o.sh_degree}, {"mip", o.mip}, {"seed", o.seed},
-          {"max_gaussians", o.max_gaussians}, {"densify_grad", o.densify_grad}, {"resume", o.resume},
-          {"force", o.force}, {"checkpoint_every", o.checkpoint_every}, {"sparse_adam", o.sparse_adam},
-          {"white_background", o.white_background}, {"coarse_factor", o.coarse_factor},
-          {"coarse_until", o.coarse_until}, {"init_points", o.init_points.mode},
-          {"far_shell", o.init_points.shell.points}, {"far_shell_radius", o.init_points.shell.radius_factor},
-          {"preset", o.preset}};
+  nlohmann::json j = splat::fit_options_json(o);
+  j.update({{"space", field_kind_name(FieldKind::rgb)}, {"test_list", so.test_list}, {"format", so.format},
+            {"crop8", so.crop_to_multiple_of_8}, {"factor", o.factor}, {"mip", o.mip},
+            {"white_background", o.white_background}, {"coarse_factor", o.coarse_factor},
+            {"coarse_until", o.coarse_until}, {"init_points", o.init_points.mode},
+            {"far_shell", o.init_points.shell.points}, {"far_shell_radius", o.init_points.shell.radius_factor}});
+  return j;
 }
 
 // The training views, reduced by `factor` when it is above 1. At 1 they are rgb_views' (the images as
@@ -83,15 +80,8 @@ RgbTrainResult train_rgb_field(const RgbTrainOptions& o) {
            ", " + std::to_string(scene.points.size()) + " SfM points" +
            (o.factor > 1 ? ", trained at 1/" + std::to_string(o.factor) + " of that size" : std::string()));
 
-  TrainerOptions to;
-  to.iterations = o.iters;
-  to.sh_degree = o.sh_degree;
+  TrainerOptions to = trainer_options(o);
   to.mip = o.mip;
-  to.seed = o.seed;
-  to.sparse_adam = o.sparse_adam;
-  to.schedule = DensifySchedule::for_iterations(o.iters);
-  to.densify.max_gaussians = o.max_gaussians;
-  to.densify.grad_threshold = o.densify_grad;
   to.coarse_factor = o.coarse_factor;
   to.coarse_until = o.coarse_until < 0 ? to.schedule.until : o.coarse_until;
   const float bg = o.white_background ? 1.0f : 0.0f;

@@ -15,29 +15,19 @@
 
 #include "lrf/points/initial_points.h"
 #include "lrf/scene/scene.h"
-#include "lrf/splat/train/densify.h"
+#include "lrf/splat/run/fit_options.h"
 
 namespace lrf {
 
-struct RgbTrainOptions {
-  std::string scene, out;
-  SceneOptions scene_options;
+// A Gaussian field's fit (scene, length, densification, seed, points, ...) with what an RGB field adds.
+struct RgbTrainOptions : splat::GaussianFitOptions {
   // Training views reduced by this factor in width and height (area-averaged, intrinsics scaled): the
   // compare rows' /8. Their size must be a multiple of it (crop_to_multiple_of_8 makes 2, 4 and 8 exact).
   int factor = 1;
-  int64_t iters = 30000;
-  int sh_degree = 3;
   bool mip = false;  // Mip-Splatting's 3D smoothing and 2D Mip filters
-  uint64_t seed = 0;
-  int64_t max_gaussians = 0;  // 0 = no cap
-  double densify_grad = splat::DensifyOptions{}.grad_threshold;
-  int64_t checkpoint_every = 1000;
-  bool sparse_adam = false, white_background = false;
+  bool white_background = false;
   int coarse_factor = 1;      // > 1 trains the first steps on reduced views (TrainerOptions::coarse_factor)
   int64_t coarse_until = -1;  // the coarse phase's last step; -1: where densification ends
-  InitPointsOptions init_points;
-  std::string preset = "default";  // the --preset the options came from, recorded for --resume
-  bool resume = false, force = false;
   std::string task = "train";  // the progress line's label
 };
 
