@@ -69,24 +69,15 @@ class NerfFieldType : public FieldType {
   }
 
   nlohmann::json evaluate(const std::string& run, const FieldScoring& scoring) const override {
-    if (scoring.scale != 1.0)
-      fail_usage("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
-    LatentEvalOptions e;
-    e.decoder = scoring.decoder;
-    e.lpips_weights = scoring.lpips_weights;
-    return nerf::evaluate_nerf_run(run, e);
+    return nerf::evaluate_nerf_run(run, decoded_eval_options(scoring));
   }
 
   int render_views(const std::string& run, const ViewRenders& request) const override {
     const nerf::NerfRun field = nerf::open_nerf_run(run);
-    const std::vector<int> views = split_views(field.scene, request.split, run);
-    if (request.scale != 1.0 || request.width > 0)
-      fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and "
-                 "decode at 8x");
-    const std::string dir = renders_folder(run, request, field.scene);
-    auto ae = load_autoencoder(field.autoencoder, field.encoder, request.decoder);
-    return write_latent_views(views, field.scene, field.range, *ae,
-                              [&](int i) { return nerf::render_nerf_latent(field, i); }, dir);
+    return write_decoded_views(
+        run, request, field.scene, field.range,
+        [&] { return load_autoencoder(field.autoencoder, field.encoder, request.decoder); },
+        [&](int i) { return nerf::render_nerf_latent(field, i); });
   }
 };
 

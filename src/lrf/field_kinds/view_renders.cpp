@@ -37,8 +37,15 @@ std::string renders_folder(const std::string& run, const ViewRenders& request, c
   return dir;
 }
 
-int write_latent_views(const std::vector<int>& views, const Scene& scene, const LatentRange& range, Autoencoder& ae,
-                       const std::function<torch::Tensor(int)>& render_view, const std::string& dir) {
+int write_decoded_views(const std::string& run, const ViewRenders& request, const Scene& scene,
+                        const LatentRange& range, const std::function<std::unique_ptr<Autoencoder>()>& load_autoencoder,
+                        const std::function<torch::Tensor(int)>& render_view) {
+  const std::vector<int> views = split_views(scene, request.split, run);
+  if (request.scale != 1.0 || request.width > 0)
+    fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and "
+               "decode at 8x");
+  const std::string dir = renders_folder(run, request, scene);
+  const std::unique_ptr<Autoencoder> ae = load_autoencoder();
   Progress progress("render", static_cast<long>(views.size()));
   long done = 0;
   for (int i : views) {
@@ -48,12 +55,20 @@ int write_latent_views(const std::vector<int>& views, const Scene& scene, const 
     StateDict latent;
     latent.insert("latent", range.denormalize(zn).contiguous());
     write_safetensors(stem + ".safetensors", latent, {{"view", view.name}, {"space", "raw latent"}});
-    write_image_rgb(stem + ".png", tensor_to_image(decode_normalised(ae, range, zn)));
+    write_image_rgb(stem + ".png", tensor_to_image(decode_normalised(*ae, range, zn)));
     progress.update(++done);
   }
   progress.finish();
   log_info("wrote " + std::to_string(views.size()) + " latents (.safetensors) and decoded images to " + dir);
   return static_cast<int>(views.size());
+}
+
+LatentEvalOptions decoded_eval_options(const FieldScoring& scoring) {
+  if (scoring.scale != 1.0) fail_usage("--scale applies to RGB fields; latent fields are scored at 8x their latent size");
+  LatentEvalOptions e;
+  e.decoder = scoring.decoder;
+  e.lpips_weights = scoring.lpips_weights;
+  return e;
 }
 
 }  // namespace lrf

@@ -1,7 +1,8 @@
 #pragma once
-// What every kind's render_views shares: the views of a split, the folder they go to, and the rendered
-// latents of the decoded kinds written beside their decoded images.
+// What the kinds' implementations share: the views of a split, the folder they go to, and what the kinds
+// decoded from latents do alike (their views' latents written beside their decoded images, their scoring).
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -9,6 +10,7 @@
 
 #include "lrf/field_kinds/field_type.h"
 #include "lrf/latent/latent_normalization.h"
+#include "lrf/latent/latent_run.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf {
@@ -22,9 +24,16 @@ std::vector<int> split_views(const Scene& scene, const std::string& split, const
 // request.dir, or RUN/renders/SPLIT; refused inside the scene's folders, created.
 std::string renders_folder(const std::string& run, const ViewRenders& request, const Scene& scene);
 
-// Each view's rendered latent (denormalised, one safetensors tensor "latent" [C, h, w]) and its decoded
-// image, at the latent resolution the field was fitted at. `render_view(i)` gives view i's normalised latent.
-int write_latent_views(const std::vector<int>& views, const Scene& scene, const LatentRange& range, Autoencoder& ae,
-                       const std::function<torch::Tensor(int)>& render_view, const std::string& dir);
+// render_views of a kind decoded from latents (latent fields, latent NeRFs): refuses a scale or size (they
+// render at their latent resolution and decode at 8x), then writes each view's rendered latent (denormalised,
+// one safetensors tensor "latent" [C, h, w]) and its decoded image. `load_autoencoder` gives the decoder to
+// use, `render_view(i)` view i's normalised latent.
+int write_decoded_views(const std::string& run, const ViewRenders& request, const Scene& scene,
+                        const LatentRange& range, const std::function<std::unique_ptr<Autoencoder>()>& load_autoencoder,
+                        const std::function<torch::Tensor(int)>& render_view);
+
+// How a decoded kind is scored: the decoder and LPIPS weights asked for; refuses --scale (such fields are
+// scored at 8x their latent size).
+LatentEvalOptions decoded_eval_options(const FieldScoring& scoring);
 
 }  // namespace lrf
