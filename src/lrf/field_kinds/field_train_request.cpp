@@ -13,6 +13,19 @@ InitPointsOptions train_points(const FieldTrainRequest& request) {
   return points;
 }
 
+void refuse_latent_settings(const FieldTrainRequest& o) {
+  if (o.rgb_guide != 0) fail_usage("--rgb-guide applies to --space latent");
+  if (o.inria_rates) fail_usage("--inria-rates applies to --space latent");
+}
+
+void refuse_rgb_settings(const FieldTrainRequest& o) {
+  if (o.coarse_factor != 1 || o.coarse_until != -1) fail_usage("--coarse-factor and --coarse-until apply to --space rgb");
+}
+
+void refuse_nerf_settings(const FieldTrainRequest& o) {
+  if (o.nerf_option_set) fail_usage("--rays, --samples and --hash-log2 apply to --space latent-nerf");
+}
+
 void require_recorded_preset(const ResumeRequest& request, const std::string& recorded, const std::string& config_path) {
   const std::string& given = request.given.preset;
   if (!request.preset_given || given == recorded) return;

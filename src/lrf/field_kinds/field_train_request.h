@@ -48,6 +48,11 @@ struct ResumeRequest {
 // throws lrf::UsageError for an unknown mode.
 InitPointsOptions train_points(const FieldTrainRequest& request);
 
+// Each kind's own settings, refused (lrf::UsageError naming them) when given for another kind of field.
+void refuse_latent_settings(const FieldTrainRequest& request);  // --rgb-guide, --inria-rates
+void refuse_rgb_settings(const FieldTrainRequest& request);     // --coarse-factor, --coarse-until
+void refuse_nerf_settings(const FieldTrainRequest& request);    // --rays, --samples, --hash-log2
+
 // --resume keeps the preset a run started with: asking for another is refused, not silently ignored.
 void require_recorded_preset(const ResumeRequest& request, const std::string& recorded, const std::string& config_path);
 

@@ -70,9 +70,8 @@ class LatentFieldType : public FieldType {
 
   void train(const FieldTrainRequest& o) const override {
     const InitPointsOptions points = train_points(o);
-    if (o.coarse_factor != 1 || o.coarse_until != -1)
-      fail_usage("--coarse-factor and --coarse-until apply to --space rgb");
-    if (o.nerf_option_set) fail_usage("--rays, --samples and --hash-log2 apply to --space latent-nerf");
+    refuse_rgb_settings(o);
+    refuse_nerf_settings(o);
     // A negative count is compare's "half the latent channels", met here only in a run being resumed.
     if (o.feature_dim < 0 && !o.resume) fail_usage("--feature-dim must be 0 (a latent field) or a feature count");
     // --test-list and --format are refused by the job itself (require_latent_scene_options).

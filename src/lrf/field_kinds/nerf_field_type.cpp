@@ -19,10 +19,8 @@ class NerfFieldType : public FieldType {
 
   void train(const FieldTrainRequest& o) const override {
     const InitPointsOptions points = train_points(o);
-    if (o.rgb_guide != 0) fail_usage("--rgb-guide applies to --space latent");
-    if (o.inria_rates) fail_usage("--inria-rates applies to --space latent");
-    if (o.coarse_factor != 1 || o.coarse_until != -1)
-      fail_usage("--coarse-factor and --coarse-until apply to --space rgb");
+    refuse_latent_settings(o);
+    refuse_rgb_settings(o);
     if (o.mip || o.sh_degree_set || o.max_gaussians || o.sparse_adam || o.white_background || o.init != "latents" ||
         o.densify_grad != splat::DensifyOptions{}.grad_threshold)
       fail_usage("--mip, --sh-degree, --max-gaussians, --densify-grad, --sparse-adam, --white-background and --init "

@@ -38,9 +38,8 @@ class RgbFieldType : public FieldType {
 
   void train(const FieldTrainRequest& o) const override {
     const InitPointsOptions points = train_points(o);
-    if (o.rgb_guide != 0) fail_usage("--rgb-guide applies to --space latent");
-    if (o.inria_rates) fail_usage("--inria-rates applies to --space latent");
-    if (o.nerf_option_set) fail_usage("--rays, --samples and --hash-log2 apply to --space latent-nerf");
+    refuse_latent_settings(o);
+    refuse_nerf_settings(o);
     if (o.feature_dim != 0) fail_usage("--feature-dim applies to --space latent (a feature field lifted to the latent)");
     train_rgb_field(rgb_options(o, points));
   }
