@@ -1,6 +1,8 @@
 #include "lrf/field_kinds/field_type.h"
 
-#include "lrf/field_kinds/kinds.h"
+#include "lrf/field_kinds/latent_field_type.h"
+#include "lrf/field_kinds/nerf_field_type.h"
+#include "lrf/field_kinds/rgb_field_type.h"
 
 namespace lrf {
 

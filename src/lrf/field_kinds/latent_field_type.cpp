@@ -1,10 +1,11 @@
 // Latent Gaussian fields (Stage II), feature fields lifted to the latent, and refined fields: rendered at
 // latent resolution and decoded, by the decoder a refined field was fitted through unless told otherwise.
+#include "lrf/field_kinds/latent_field_type.h"
+
 #include <filesystem>
 
 #include "lrf/core/run_info.h"
 #include "lrf/core/error.h"
-#include "lrf/field_kinds/kinds.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/splat/run/train_run.h"

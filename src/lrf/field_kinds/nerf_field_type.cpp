@@ -1,9 +1,10 @@
 // Latent NeRFs (the paper's Latent-NeRF* baseline): the same normalised latents as a latent field, rendered
 // ray by ray and decoded through the autoencoder's decoder unless told otherwise.
+#include "lrf/field_kinds/nerf_field_type.h"
+
 #include <filesystem>
 
 #include "lrf/core/error.h"
-#include "lrf/field_kinds/kinds.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/nerf/nerf_run.h"
 

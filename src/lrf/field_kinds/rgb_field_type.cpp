@@ -1,4 +1,6 @@
 // RGB Gaussian fields (lrf train --space rgb, compare's rgb rows): rendered directly, at any resolution.
+#include "lrf/field_kinds/rgb_field_type.h"
+
 #include <filesystem>
 
 #include "lrf/core/run_info.h"
@@ -6,7 +8,6 @@
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
-#include "lrf/field_kinds/kinds.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/rgb/rgb_eval.h"
 #include "lrf/rgb/rgb_field.h"
