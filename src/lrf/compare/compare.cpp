@@ -133,13 +133,13 @@ class CompareRun {
     switch (m.job) {
       case CompareJob::latent_field:
         ensure_latent_field();
-        return scores_of(dir, o_.decoder);
+        return scores_of(m.kind, dir, o_.decoder);
       case CompareJob::refined_latent:  // refined above, through the decoder it records
-        return scores_of(dir, "");
+        return scores_of(m.kind, dir, "");
       case CompareJob::latent_nerf:
         return nerf_scores(m, dir, resume);
       case CompareJob::feature_field:
-        return feature_scores(dir, resume);
+        return feature_scores(m, dir, resume);
       case CompareJob::rgb_field:
         break;
     }
@@ -174,21 +174,29 @@ class CompareRun {
     }
   }
 
+  // What every Gaussian field of this compare is fitted with: its scene and views, points, seed and length.
+  splat::GaussianFitOptions gaussian_fit(const std::string& out, int64_t iters, bool resume) const {
+    splat::GaussianFitOptions f;
+    f.scene = o_.scene;
+    f.out = out;
+    f.scene_options = scene_options_;  // cropped to multiples of 8, the latent rows' views
+    f.iters = iters;
+    f.seed = o_.seed;
+    f.init_points = o_.init_points;
+    f.resume = resume;
+    f.force = !resume;
+    return f;
+  }
+
   // The latent field's training options, shared by the latent row and the feature-gs baseline.
   LatentTrainOptions latent_field_options(const std::string& out, bool resume) const {
     LatentTrainOptions l;
-    l.scene = o_.scene;
-    l.out = out;
-    l.scene_options = scene_options_;
+    static_cast<splat::GaussianFitOptions&>(l) =
+        gaussian_fit(out, o_.latent_iters > 0 ? o_.latent_iters : o_.iters, resume);
+    l.sh_degree = o_.latent_sh_degree;
     l.autoencoder = o_.autoencoder;
     l.encoder = o_.encoder;
     l.cache_dir = o_.cache_dir;
-    l.sh_degree = o_.latent_sh_degree;
-    l.init_points = o_.init_points;
-    l.iters = o_.latent_iters > 0 ? o_.latent_iters : o_.iters;
-    l.seed = o_.seed;
-    l.resume = resume;
-    l.force = !resume;
     return l;
   }
 
@@ -215,16 +223,16 @@ class CompareRun {
                                 o_.force || latent_fresh_);
   }
 
-  // A row's scores, as lrf eval gives them for its kind of field.
-  nlohmann::json scores_of(const std::string& dir, const std::string& decoder) const {
-    return field_type_of(dir).evaluate(dir, {decoder, o_.lpips_weights, 1.0});
+  // A row's scores, as lrf eval gives them for the method's kind of field.
+  nlohmann::json scores_of(FieldKind kind, const std::string& dir, const std::string& decoder) const {
+    return field_type(kind).evaluate(dir, {decoder, o_.lpips_weights, 1.0});
   }
 
   // The detail pass has no field of its own and takes seconds: it is scored again every time, with the
   // options asked for now, on latent-refined's field and beside its scores.
   nlohmann::json detail_scores(const std::string& dir, bool refined_now) const {
     const std::string refined_metrics = (fs::path(refined_dir_) / "metrics.json").string();
-    if (refined_now || !fs::exists(refined_metrics)) scores_of(refined_dir_, "");
+    if (refined_now || !fs::exists(refined_metrics)) scores_of(FieldKind::latent, refined_dir_, "");
     const nlohmann::json base = read_json_file(refined_metrics);
     detail::DetailEvalOptions d;
     d.lpips_weights = o_.lpips_weights;
@@ -248,10 +256,10 @@ class CompareRun {
       n.force = !resume;
       nerf::train_latent_nerf(n);
     }
-    return scores_of(dir, o_.decoder);
+    return scores_of(m.kind, dir, o_.decoder);
   }
 
-  nlohmann::json feature_scores(const std::string& dir, bool resume) const {
+  nlohmann::json feature_scores(const CompareMethod& m, const std::string& dir, bool resume) const {
     if (o_.force || !splat::run_finished(dir)) {
       // The latent field's training, with a feature field in place of latent features.
       LatentTrainOptions l = latent_field_options(dir, resume);
@@ -259,26 +267,19 @@ class CompareRun {
       l.sh_degree = 0;  // Feature 3DGS's features are view-independent
       train_latent_field(l);
     }
-    return scores_of(dir, o_.decoder);
+    return scores_of(m.kind, dir, o_.decoder);
   }
 
   nlohmann::json rgb_scores(const CompareMethod& m, const std::string& dir, bool resume) const {
     if (o_.force || !splat::run_finished(dir)) {
       RgbTrainOptions b;
-      b.scene = o_.scene;
-      b.scene_options = scene_options_;  // cropped to multiples of 8, as the latent rows' views
-      b.out = dir;
+      static_cast<splat::GaussianFitOptions&>(b) = gaussian_fit(dir, o_.iters, resume);
       b.factor = m.rgb_factor;
-      b.iters = o_.iters;
       b.mip = m.mip;
-      b.seed = o_.seed;
-      b.resume = resume;
-      b.force = !resume;
-      b.init_points = o_.init_points;
       b.task = "train-" + m.name;
       train_rgb_field(b);
     }
-    return scores_of(dir, "");
+    return scores_of(m.kind, dir, "");
   }
 
   const CompareOptions& o_;

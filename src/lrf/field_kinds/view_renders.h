@@ -17,7 +17,7 @@ namespace lrf {
 
 class Autoencoder;
 
-// The views of `request.split` (test, train or all); throws lrf::UsageError for another name and
+// The views of `split` (test, train or all); throws lrf::UsageError for another name and
 // lrf::Error naming `run` when the split has none.
 std::vector<int> split_views(const Scene& scene, const std::string& split, const std::string& run);
 

@@ -64,6 +64,17 @@ void parse_shard(const std::string& text, PipelineOptions* options) {
 
 namespace {
 
+// The training scenes' fields by encoder: "stock" and "ft" (Stage I's), what each Stage III decoder learns from.
+std::map<std::string, std::vector<std::string>> training_fields(const PipelineScenes& scenes,
+                                                                 const PipelinePaths& paths) {
+  std::map<std::string, std::vector<std::string>> fields;
+  for (const auto& s : scenes.train) {
+    fields["stock"].push_back(paths.field(s, "stock"));
+    fields["ft"].push_back(paths.field(s, "ft"));
+  }
+  return fields;
+}
+
 // What a unit needs that is not finished yet, in words ("" when it can run).
 std::string missing(const UnitNeeds& needs, const UnitNeeds& ready) {
   std::string m;
@@ -78,14 +89,10 @@ std::string missing(const UnitNeeds& needs, const UnitNeeds& ready) {
 // those that need a stage the unsharded command makes.
 nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
   const std::string me = "shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
-  std::vector<std::string> train_stock, train_ft;
-  for (const auto& s : scenes.train) {
-    train_stock.push_back(paths.field(s, "stock"));
-    train_ft.push_back(paths.field(s, "ft"));
-  }
+  const auto fields = training_fields(scenes, paths);
   const UnitNeeds ready{encoder_finished(encoder_options(o, scenes, paths)),
-                        decoder_finished(decoder_options(o, train_stock, "", paths.decoder("stock"))),
-                        decoder_finished(decoder_options(o, train_ft, paths.encoder(), paths.decoder("ft")))};
+                        decoder_finished(decoder_options(o, fields.at("stock"), "", paths.decoder("stock"))),
+                        decoder_finished(decoder_options(o, fields.at("ft"), paths.encoder(), paths.decoder("ft")))};
   std::map<std::string, EvaluatedScene> scored;  // the tables are the unsharded command's
   std::vector<PipelineUnit> units = training_field_units(o, scenes, paths);
   for (PipelineUnit& u : evaluation_units(o, scenes, paths, &scored)) units.push_back(std::move(u));
@@ -213,12 +220,9 @@ TrainedStages train_stages(const PipelineOptions& o, const PipelineScenes& scene
   TrainedStages trained;
   trained.encoder = paths.encoder();
   for (const PipelineUnit& unit : training_field_units(o, scenes, paths)) unit.work();
-  for (const auto& s : scenes.train) {
-    trained.fields["stock"].push_back(paths.field(s, "stock"));
-    trained.fields["ft"].push_back(paths.field(s, "ft"));
-  }
-  ensure_decoder(o, trained.fields["stock"], "", paths.decoder("stock"));
-  ensure_decoder(o, trained.fields["ft"], trained.encoder, paths.decoder("ft"));
+  trained.fields = training_fields(scenes, paths);
+  ensure_decoder(o, trained.fields.at("stock"), "", paths.decoder("stock"));
+  ensure_decoder(o, trained.fields.at("ft"), trained.encoder, paths.decoder("ft"));
   return trained;
 }
 
@@ -295,7 +299,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   const ReportTable stage_table = times.table();
   write_table_csv(paths.output("stages", "csv"), stage_table.header, stage_table.rows);
   write_table_markdown(paths.output("stages", "md"), stage_table.header, stage_table.rows);
-  const AblationRecord ablation = write_ablation(o, scenes, paths, evaluated, times);
+  const AblationRecord ablation = write_ablation(o, scenes, paths, evaluated, stage_table);
 
   record["results"] = ablation.results;
   record["mean"] = ablation.mean;

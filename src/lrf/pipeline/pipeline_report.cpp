@@ -88,7 +88,7 @@ std::vector<std::string> report_notes(const PipelineOptions& o, const PipelineSc
 }  // namespace
 
 AblationRecord write_ablation(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths,
-                              const std::vector<EvaluatedScene>& evaluated, const StageTimes& times) {
+                              const std::vector<EvaluatedScene>& evaluated, const ReportTable& stage_times) {
   const std::vector<std::string>& header = ablation_header();
   AblationRecord record;
   record.results = nlohmann::json::object();
@@ -128,7 +128,7 @@ AblationRecord write_ablation(const PipelineOptions& o, const PipelineScenes& sc
   for (const Row& r : mean.rows) mean_table.rows.push_back(Row(r.begin() + 1, r.end()));
   if (several_scenes) spec.tables.push_back(mean_table);
   spec.notes = report_notes(o, scenes, paths, evaluated, mean_note);
-  spec.tables.push_back(times.table());
+  spec.tables.push_back(stage_times);
   write_html_report(paths.output("report", "html"), spec);
 
   nlohmann::json mean_scores = nlohmann::json::object();

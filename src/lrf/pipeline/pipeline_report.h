@@ -12,7 +12,7 @@
 #include "lrf/pipeline/pipeline.h"
 #include "lrf/pipeline/pipeline_paths.h"
 #include "lrf/pipeline/pipeline_scenes.h"
-#include "lrf/pipeline/stage_times.h"
+#include "lrf/eval/report.h"
 
 namespace lrf {
 
@@ -30,8 +30,8 @@ struct AblationRecord {
   nlohmann::json results, mean;
 };
 
-// Writes ablation.csv, ablation.md and report.html (with `times` as the stage-time table) of this protocol.
+// Writes ablation.csv, ablation.md and report.html (with `stage_times` as its last table) of this protocol.
 AblationRecord write_ablation(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths,
-                              const std::vector<EvaluatedScene>& evaluated, const StageTimes& times);
+                              const std::vector<EvaluatedScene>& evaluated, const ReportTable& stage_times);
 
 }  // namespace lrf
