@@ -123,7 +123,7 @@ TEST(Compare, ReportDescribesOnlyItsMethods) {
 TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
   lrf::test::TempDir dir("compare_few_shot");
   lrf::CompareOptions o = tiny_compare(dir / "cmp");
-  o.train_views = 3;  // test view 0; training views 1..7 at positions 0, 3, 6
+  o.scene_options.train_views = 3;  // test view 0; training views 1..7 at positions 0, 3, 6
   o.methods = {"rgb-mip", "latent"};  // Table 2's Mip-Splatting row: full resolution, with the filters
   lrf::run_compare(o);
   EXPECT_EQ(lrf::read_json_file(dir / "cmp/rgb-mip/config.json")["mip"], true);
@@ -142,7 +142,7 @@ TEST(Compare, FewShotTrainsEveryMethodOnTheSameViewsAndRefusesOtherSettings) {
   }
   EXPECT_EQ(lrf::read_json_file(dir / "cmp/compare.json")["training_views"], names);
   lrf::CompareOptions all_views = o;
-  all_views.train_views = 0;
+  all_views.scene_options.train_views = 0;
   const std::string msg = lrf::test::error_of([&] { lrf::run_compare(all_views); });
   EXPECT_NE(msg.find("this folder holds methods made with other settings"), std::string::npos) << msg;
   EXPECT_NE(msg.find("train_views (3 vs 0)"), std::string::npos) << msg;

@@ -31,7 +31,7 @@ lrf::PipelineOptions tiny_pipeline(const std::string& out) {
   o.stage1.batch.crop = 48;
   o.stage1.lr = 1e-4;
   o.field_iters = 60;
-  o.stage3_steps = 3;
+  o.stage3.steps = 3;
   o.refine.steps = 3;
   o.rgb_full = true;  // every row of the ablation
   return o;

@@ -26,16 +26,16 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   auto o = std::make_shared<lrf::CompareOptions>();
   cmd->add_option("scene", o->scene, "Scene folder")->required();
   cmd->add_option("-o,--out", o->out, "Output folder (one subfolder per method; finished methods are reused; latent-refined only if made with the same --refine-* options, and continued if more --refine-steps are asked for at constant rates, --refine-lr-final 1)")->required();
-  cmd->add_option("--images", o->images, "Image folder inside the scene, e.g. images_8");
-  cmd->add_option("--downscale", o->downscale, "Area-downscale the images by this factor")->capture_default_str();
-  cmd->add_option("--test-every", o->test_every, "Hold out every N-th view for testing")->capture_default_str();
-  cmd->add_option("--train-views", o->train_views,
+  cmd->add_option("--images", o->scene_options.images_dir, "Image folder inside the scene, e.g. images_8");
+  cmd->add_option("--downscale", o->scene_options.downscale, "Area-downscale the images by this factor")->capture_default_str();
+  cmd->add_option("--test-every", o->scene_options.test_every, "Hold out every N-th view for testing")->capture_default_str();
+  cmd->add_option("--train-views", o->scene_options.train_views,
                   "Few-shot protocol (the paper's Table 2 uses 3): every method trains on only K views, evenly spaced "
                   "over the non-test views; test views unchanged; initial points triangulated from the K (0: all)")
       ->capture_default_str();
   lrf::cli::add_autoencoder_option(cmd, &o->autoencoder, "of the latent rows");
   cmd->add_option("--encoder", o->encoder, "Fine-tuned encoder weights for the latent field (Stage I)");
-  cmd->add_option("--decoder", o->decoder,
+  cmd->add_option("--decoder", o->scoring.decoder,
                   "Decoder weights to decode the latent field with, and to refine it through (Stage III)");
   cmd->add_option("--steps,--iters", o->iters, "Training steps of every method")->capture_default_str();
   cmd->add_option("--latent-steps,--latent-iters", o->latent_iters, "Training steps of the latent field (0 = --steps)")->capture_default_str();
@@ -55,7 +55,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
                   "convolution trained with it)")
       ->capture_default_str();
   lrf::cli::add_refine_options(cmd, &o->refine, "latent-refined");
-  lrf::cli::add_detail_options(cmd, &o->detail);
+  lrf::cli::add_detail_options(cmd, &o->scoring.detail);
   cmd->add_option("--feature-dim", o->feature_dim,
                   "feature-gs: features per Gaussian (0: Feature 3DGS's default, half the latent channels, 16 for TAEF2)")
       ->check(CLI::Range(0, lrf::kMaxFeatureDim))
@@ -63,7 +63,7 @@ lrf::cli::CommandRegistration reg(25, [](CLI::App& root) {
   cmd->add_option("--curve", o->curves,
                   "NAME=CSV: a quality curve of another run (the curve.csv of lrf refine --score-every) drawn in the "
                   "report's chart beside this run's latent-refined curve (with --refine-score-every); repeatable");
-  cmd->add_option("--lpips-weights", o->lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
+  cmd->add_option("--lpips-weights", o->scoring.lpips_weights, "LPIPS weights (lpips v0.1 VGG layout); without: lpips empty");
   cmd->add_option("--cache-dir", o->cache_dir, "Latent cache folder (default $LRF_CACHE or ~/.cache/lrf)");
   cmd->add_option("--seed", o->seed, "Random seed")->capture_default_str();
   cmd->add_flag("--force", o->force, "Retrain and re-score every method instead of reusing finished ones");

@@ -16,15 +16,15 @@ lrf::cli::CommandRegistration reg(1, [](CLI::App& root) {
               "ablation table, report.html and a short video");
   auto o = std::make_shared<lrf::DemoOptions>();
   demo->add_option("-o,--output", o->output, "Output folder")->capture_default_str();
-  lrf::cli::add_autoencoder_option(demo, &o->autoencoder, "of the latent fields");
-  demo->add_option("--views", o->views, "Views per synthetic scene")->capture_default_str();
-  demo->add_option("--size", o->size, "Size of the synthetic views, WxH (latent fields are 8x smaller)")->capture_default_str();
-  demo->add_option("--field-steps,--iters", o->field_iters, "Training steps per field (latent fields and RGB baselines)")
+  lrf::cli::add_autoencoder_option(demo, &o->pipeline.autoencoder, "of the latent fields");
+  demo->add_option("--views", o->scenes.views, "Views per synthetic scene")->capture_default_str();
+  demo->add_option("--size", o->scenes.size, "Size of the synthetic views, WxH (latent fields are 8x smaller)")->capture_default_str();
+  demo->add_option("--field-steps,--iters", o->pipeline.field_iters, "Training steps per field (latent fields and RGB baselines)")
       ->capture_default_str();
-  demo->add_option("--stage1-steps", o->stage1_steps, "Stage I (encoder fine-tuning) steps")->capture_default_str();
-  demo->add_option("--stage3-steps", o->stage3_steps, "Stage III (decoder fine-tuning) steps")->capture_default_str();
-  demo->add_option("--refine-steps", o->refine_steps, "Steps of each refined row")->capture_default_str();
-  demo->add_option("--video-frames", o->video_frames, "Frames of the orbit video of the both+refine field (0: none)")
+  demo->add_option("--stage1-steps", o->pipeline.stage1.steps, "Stage I (encoder fine-tuning) steps")->capture_default_str();
+  demo->add_option("--stage3-steps", o->pipeline.stage3.steps, "Stage III (decoder fine-tuning) steps")->capture_default_str();
+  demo->add_option("--refine-steps", o->pipeline.refine.steps, "Steps of each refined row")->capture_default_str();
+  demo->add_option("--video-frames", o->video.frames, "Frames of the orbit video of the both+refine field (0: none)")
       ->capture_default_str();
   demo->add_flag("--force", o->force, "Replace the output folder if it exists");
   lrf::cli::on_run(demo, [o] {

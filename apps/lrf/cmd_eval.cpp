@@ -22,10 +22,9 @@ namespace {
 
 struct EvalOptions {
   std::string out;
-  lrf::FieldScoring scoring;  // decoder, LPIPS weights, scale
+  lrf::detail::DetailEvalOptions scoring;  // decoder, LPIPS weights, scale; and the detail pass's options
   bool json = false;
   bool detail = false;
-  lrf::detail::DetailOptions detail_options;
 };
 
 // "0.542" for a number, "-" for null (a metric that could not be computed).
@@ -70,13 +69,8 @@ void report(const EvalOptions& o, const nlohmann::json& brief, bool latent) {
 // eval/*.png) so that the field's own metrics.json stays as it was.
 int run_eval_detail(const EvalOptions& o) {
   using namespace lrf;
-  if (o.scoring.scale != 1.0) fail_usage("--scale does not apply with --detail: frames are scored at the field's resolution");
   const std::string dir = (fs::path(o.out) / "detail").string();
-  lrf::detail::DetailEvalOptions d;
-  d.decoder = o.scoring.decoder;
-  d.lpips_weights = o.scoring.lpips_weights;
-  d.detail = o.detail_options;
-  const nlohmann::json m = lrf::detail::evaluate_with_detail(o.out, dir, d);
+  const nlohmann::json m = lrf::detail::evaluate_with_detail(o.out, dir, o.scoring);
   nlohmann::json brief = {{"psnr", m["psnr"]}, {"ssim", m["ssim"]}, {"ms_ssim", m["ms_ssim"]}, {"flip", m["flip"]},
                           {"lpips", m["lpips"]}, {"frame_fps", m["frame_fps"]}, {"detail_ms", m["detail_ms"]},
                           {"views", m["views"].size()}};
@@ -138,7 +132,7 @@ lrf::cli::CommandRegistration reg(22, [](CLI::App& root) {
   cmd->add_flag("--detail", o->detail,
                 "Score the field with the detail pass (training photographs carried into each test view with the "
                 "field's depth and blended in where they agree), into OUT/detail/ (splat fields)");
-  lrf::cli::add_detail_options(cmd, &o->detail_options);
+  lrf::cli::add_detail_options(cmd, &o->scoring.detail);
   lrf::cli::add_scene_override_option(cmd);
   lrf::cli::on_run(cmd, [o] { return run_eval(*o); });
 });

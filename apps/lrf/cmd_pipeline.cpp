@@ -52,15 +52,15 @@ lrf::cli::CommandRegistration reg(47, [](CLI::App& root) {
   cmd->add_option("--lambda-corres", o->stage1.lambda_corres, "Stage I weight of the correspondence loss")
       ->capture_default_str();
   cmd->add_option("--lambda-reg", o->stage1.lambda_reg, "Stage I weight of the regulariser")->capture_default_str();
-  cmd->add_option("--stage3-steps", o->stage3_steps, "Stage III steps (each decoder)")->capture_default_str();
-  cmd->add_option("--stage3-lr", o->stage3_lr, "Stage III learning rate (0: finetune-decoder's default)")
+  cmd->add_option("--stage3-steps", o->stage3.steps, "Stage III steps (each decoder)")->capture_default_str();
+  cmd->add_option("--stage3-lr", o->stage3.lr, "Stage III Adam learning rate (0: the paper's base rate x crops per step)")
       ->capture_default_str();
-  cmd->add_option("--stage3-crop", o->stage3_crop, "Stage III crop side in pixels (0: finetune-decoder's default)")
+  cmd->add_option("--stage3-crop", o->stage3.crop, "Stage III crop side in pixels (a multiple of 8)")
       ->capture_default_str();
-  cmd->add_option("--stage3-lambda-ssim", o->stage3_lambda_ssim,
+  cmd->add_option("--stage3-lambda-ssim", o->stage3.lambda_ssim,
                   "Stage III: mix each term's L1 with D-SSIM, (1 - lambda) L1 + lambda (1 - SSIM) (0: the paper's pure L1)")
       ->capture_default_str();
-  cmd->add_option("--stage3-weight-roundtrip", o->stage3_weight_roundtrip,
+  cmd->add_option("--stage3-weight-roundtrip", o->stage3.weight_roundtrip,
                   "Stage III: weight of an L1 term on encoded training images that keeps the decoder decoding ordinary "
                   "latents (0: none, the paper's loss, which on three LLFF scenes lost 0.5 dB against the stock decoder "
                   "where this default gained 0.5)")

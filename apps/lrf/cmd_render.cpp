@@ -27,11 +27,11 @@ struct RenderOptions {
   lrf::ViewRenders views;  // the scene's views; their scale, size and decoder serve --path too
   bool split_given = false;
   // Camera-path videos (--path).
-  std::string path, video, frames_dir;
-  int frames = 120;
-  double fps = 30;
+  std::string path;
+  lrf::camera_path::PathOptions path_options;
+  lrf::video::PathVideoOptions video;
   bool frames_given = false, fps_given = false;
-  bool detail = false, stability = false;
+  bool detail = false;
   lrf::detail::DetailOptions detail_options;
 };
 
@@ -44,17 +44,11 @@ int run_render_path(const RenderOptions& o) {
   if (frames->latent() && (o.views.scale != 1.0 || o.views.width > 0))
     fail_usage("--scale/--width/--height apply to RGB fields; latent fields render at their latent resolution and decode at 8x");
   const auto kind = camera_path::parse_path_kind(o.path);
-  camera_path::PathOptions po;
-  po.frames = o.frames;
   camera_path::PathGeometry geometry;
-  if (!o.frames_dir.empty()) refuse_output_in_scene(o.frames_dir, frames->scene());
-  auto path = camera_path::make_path(frames->scene(), kind, po, &geometry);
+  if (!o.video.frames_dir.empty()) refuse_output_in_scene(o.video.frames_dir, frames->scene());
+  auto path = camera_path::make_path(frames->scene(), kind, o.path_options, &geometry);
   for (auto& c : path) c = splat::scaled_camera(c, o.views.scale, o.views.width, o.views.height);
-  video::PathVideoOptions vo;
-  vo.video = o.video;
-  vo.frames_dir = o.frames_dir;
-  vo.fps = o.fps;
-  vo.stability = o.stability;
+  video::PathVideoOptions vo = o.video;
   if (vo.video.empty() && vo.frames_dir.empty()) {
     vo.video = (fs::path(o.out) / "renders" / (o.path + ".mp4")).string();
     fs::create_directories(fs::path(vo.video).parent_path());
@@ -73,7 +67,7 @@ int run_render_path(const RenderOptions& o) {
                   static_cast<const lrf::detail::DetailFrames&>(*frames).borrowed_views().size());
     log_info(line);
   }
-  if (o.stability) {
+  if (vo.stability) {
     std::snprintf(line, sizeof line,
                   "stability: consecutive frames differ by %.2f of 255 on average after the field's depth carries "
                   "one onto the next (lower is steadier)", r.warp_error);
@@ -81,7 +75,7 @@ int run_render_path(const RenderOptions& o) {
     std::printf("{\"warp_error\": %.4f, \"frames\": %ld}\n", r.warp_error, r.frames);
   }
   if (!vo.video.empty()) {
-    std::snprintf(line, sizeof line, "%g", o.fps);
+    std::snprintf(line, sizeof line, "%g", vo.fps);
     log_info("wrote " + vo.video + " (" + r.codec + ", " + line + " fps)");
   }
   if (!vo.frames_dir.empty()) log_info("wrote " + std::to_string(r.frames) + " PNG frames to " + vo.frames_dir);
@@ -92,7 +86,7 @@ int run_render(const RenderOptions& o) {
   using namespace lrf;
   splat::check_render_options(o.views.scale, o.views.width, o.views.height);  // before the field is even opened
   if (!o.path.empty()) return run_render_path(o);
-  if (!o.video.empty() || !o.frames_dir.empty() || o.frames_given || o.fps_given || o.stability)
+  if (!o.video.video.empty() || !o.video.frames_dir.empty() || o.frames_given || o.fps_given || o.video.stability)
     fail_usage("--video, --frames-dir, --frames, --fps and --stability go with --path");
   if (o.detail) fail_usage("--detail goes with --path (lrf eval --detail scores the scene's test views with it)");
   field_type_of(o.out).render_views(o.out, o.views);
@@ -119,16 +113,16 @@ lrf::cli::CommandRegistration reg(21, [](CLI::App& root) {
   cmd->add_option("--path", o->path, "Render a camera path instead of the scene's views: spiral (LLFF's spiral around "
                   "the mean training pose, for forward-facing scenes), orbit (a turn around the SfM points' centre, for "
                   "object scenes) or interp (smooth path through the training views)");
-  auto* frames = cmd->add_option("--frames", o->frames, "--path: number of frames (1 to 100000)")->capture_default_str();
-  auto* fps = cmd->add_option("--fps", o->fps, "--path: frames per second of the video")->capture_default_str();
-  cmd->add_option("--video", o->video, "--path: the MP4 file to write (H.264; default OUT/renders/PATH.mp4 unless "
+  auto* frames = cmd->add_option("--frames", o->path_options.frames, "--path: number of frames (1 to 100000)")->capture_default_str();
+  auto* fps = cmd->add_option("--fps", o->video.fps, "--path: frames per second of the video")->capture_default_str();
+  cmd->add_option("--video", o->video.video, "--path: the MP4 file to write (H.264; default OUT/renders/PATH.mp4 unless "
                   "--frames-dir is given)");
-  cmd->add_option("--frames-dir", o->frames_dir, "--path: also (or only) write the frames as PNG files into this folder");
+  cmd->add_option("--frames-dir", o->video.frames_dir, "--path: also (or only) write the frames as PNG files into this folder");
   cmd->add_flag("--detail", o->detail,
                 "--path: the detail pass on every frame (the nearest training photographs carried into it with the "
                 "field's depth and blended in where they agree; splat fields)");
   lrf::cli::add_detail_options(cmd, &o->detail_options);
-  cmd->add_flag("--stability", o->stability,
+  cmd->add_flag("--stability", o->video.stability,
                 "--path: measure frame-to-frame stability (the mean difference of consecutive frames after the "
                 "field's depth carries one onto the next, in 8-bit levels), printed as JSON too; splat fields");
   lrf::cli::add_scene_override_option(cmd);

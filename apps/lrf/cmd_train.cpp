@@ -91,7 +91,7 @@ lrf::cli::CommandRegistration reg(20, [](CLI::App& root) {
                   "the coarse weights")
       ->capture_default_str()
       ->each(nerf_option);
-  cmd->add_option("--hash-log2", o->hash_log2, "latent-nerf: log2 of the hash table's entries per grid level")
+  cmd->add_option("--hash-log2", o->log2_table, "latent-nerf: log2 of the hash table's entries per grid level")
       ->capture_default_str()
       ->each(nerf_option);
   cmd->add_option("--sh-degree", o->sh_degree, "Largest spherical-harmonics degree (0-3; default 3 for rgb, " +

@@ -12,6 +12,7 @@
 #include "lrf/field_kinds/field_type.h"
 #include "lrf/core/folder_lock.h"
 #include "lrf/core/log.h"
+#include "lrf/core/option_parts.h"
 #include "lrf/core/paths.h"
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_field.h"
@@ -34,10 +35,10 @@ namespace {
 // with other settings is refused rather than mixed into one table.
 nlohmann::json compare_settings(const CompareOptions& o) {
   nlohmann::json settings = {{"scene", canonical_path(o.scene)},
-          {"images", o.images},
-          {"downscale", o.downscale},
-          {"test_every", o.test_every},
-          {"train_views", o.train_views},
+          {"images", o.scene_options.images_dir},
+          {"downscale", o.scene_options.downscale},
+          {"test_every", o.scene_options.test_every},
+          {"train_views", o.scene_options.train_views},
           {"iters", o.iters},
           {"latent_iters", o.latent_iters},
           {"seed", o.seed},
@@ -45,7 +46,7 @@ nlohmann::json compare_settings(const CompareOptions& o) {
           {"far_shell", o.init_points.shell.points},
           {"view_images", kViewImagesVersion}};
   // A K-view split triangulates its own start; a folder made by an earlier track rule is not reused.
-  if (const std::optional<int> rule = few_shot_track_rule(o.init_points.mode, o.train_views)) {
+  if (const std::optional<int> rule = few_shot_track_rule(o.init_points.mode, o.scene_options.train_views)) {
     settings["initial_points_min_track_length"] = *rule;
   }
   return settings;
@@ -133,7 +134,7 @@ class CompareRun {
     switch (m.job) {
       case CompareJob::latent_field:
         ensure_latent_field();
-        return scores_of(m.kind, dir, o_.decoder);
+        return scores_of(m.kind, dir, o_.scoring.decoder);
       case CompareJob::refined_latent:  // refined above, through the decoder it records
         return scores_of(m.kind, dir, "");
       case CompareJob::latent_nerf:
@@ -177,12 +178,10 @@ class CompareRun {
   // What every Gaussian field of this compare is fitted with: its scene and views, points, seed and length.
   splat::GaussianFitOptions gaussian_fit(const std::string& out, int64_t iters, bool resume) const {
     splat::GaussianFitOptions f;
-    f.scene = o_.scene;
+    copy_part<SceneFitOptions>(f, o_);
     f.out = out;
     f.scene_options = scene_options_;  // cropped to multiples of 8, the latent rows' views
     f.iters = iters;
-    f.seed = o_.seed;
-    f.init_points = o_.init_points;
     f.resume = resume;
     f.force = !resume;
     return f;
@@ -191,12 +190,9 @@ class CompareRun {
   // The latent field's training options, shared by the latent row and the feature-gs baseline.
   LatentTrainOptions latent_field_options(const std::string& out, bool resume) const {
     LatentTrainOptions l;
-    static_cast<splat::GaussianFitOptions&>(l) =
-        gaussian_fit(out, o_.latent_iters > 0 ? o_.latent_iters : o_.iters, resume);
+    copy_part<splat::GaussianFitOptions>(l, gaussian_fit(out, o_.latent_iters > 0 ? o_.latent_iters : o_.iters, resume));
+    copy_part<LatentSource>(l, o_);
     l.sh_degree = o_.latent_sh_degree;
-    l.autoencoder = o_.autoencoder;
-    l.encoder = o_.encoder;
-    l.cache_dir = o_.cache_dir;
     return l;
   }
 
@@ -215,7 +211,7 @@ class CompareRun {
     RefineOptions r = o_.refine;
     r.run = latent_dir_;
     r.out = refined_dir_;
-    r.decoder = o_.decoder;
+    r.decoder = o_.scoring.decoder;
     r.seed = o_.seed;
     r.cache_dir = o_.cache_dir;
     // A refinement of an older latent field (or any, with --force) is made again from the start.
@@ -225,7 +221,9 @@ class CompareRun {
 
   // A row's scores, as lrf eval gives them for the method's kind of field.
   nlohmann::json scores_of(FieldKind kind, const std::string& dir, const std::string& decoder) const {
-    return field_type(kind).evaluate(dir, {decoder, o_.lpips_weights, 1.0});
+    FieldScoring scoring = o_.scoring;
+    scoring.decoder = decoder;
+    return field_type(kind).evaluate(dir, scoring);
   }
 
   // The detail pass has no field of its own and takes seconds: it is scored again every time, with the
@@ -234,29 +232,19 @@ class CompareRun {
     const std::string refined_metrics = (fs::path(refined_dir_) / "metrics.json").string();
     if (refined_now || !fs::exists(refined_metrics)) scores_of(FieldKind::latent, refined_dir_, "");
     const nlohmann::json base = read_json_file(refined_metrics);
-    detail::DetailEvalOptions d;
-    d.lpips_weights = o_.lpips_weights;
-    d.detail = o_.detail;
+    detail::DetailEvalOptions d = o_.scoring;
+    d.decoder.clear();  // the refined field's own: the decoder it was refined through
     return detail::evaluate_with_detail(refined_dir_, dir, d, &base);
   }
 
   nlohmann::json nerf_scores(const CompareMethod& m, const std::string& dir, bool resume) const {
     if (o_.force || !finished(m, dir)) {
       nerf::LatentNerfOptions n;
-      n.scene = o_.scene;
-      n.out = dir;
-      n.scene_options = scene_options_;
-      n.autoencoder = o_.autoencoder;
-      n.encoder = o_.encoder;
-      n.cache_dir = o_.cache_dir;
-      n.init_points = o_.init_points;
-      n.iters = nerf_iters_;
-      n.seed = o_.seed;
-      n.resume = resume;
-      n.force = !resume;
+      copy_part<SceneFitOptions>(n, gaussian_fit(dir, nerf_iters_, resume));
+      copy_part<LatentSource>(n, o_);
       nerf::train_latent_nerf(n);
     }
-    return scores_of(m.kind, dir, o_.decoder);
+    return scores_of(m.kind, dir, o_.scoring.decoder);
   }
 
   nlohmann::json feature_scores(const CompareMethod& m, const std::string& dir, bool resume) const {
@@ -267,13 +255,13 @@ class CompareRun {
       l.sh_degree = 0;  // Feature 3DGS's features are view-independent
       train_latent_field(l);
     }
-    return scores_of(m.kind, dir, o_.decoder);
+    return scores_of(m.kind, dir, o_.scoring.decoder);
   }
 
   nlohmann::json rgb_scores(const CompareMethod& m, const std::string& dir, bool resume) const {
     if (o_.force || !splat::run_finished(dir)) {
       RgbTrainOptions b;
-      static_cast<splat::GaussianFitOptions&>(b) = gaussian_fit(dir, o_.iters, resume);
+      copy_part<splat::GaussianFitOptions>(b, gaussian_fit(dir, o_.iters, resume));
       b.factor = m.rgb_factor;
       b.mip = m.mip;
       b.task = "train-" + m.name;
@@ -290,11 +278,7 @@ class CompareRun {
 };
 
 SceneOptions compare_scene_options(const CompareOptions& o) {
-  SceneOptions so;
-  so.images_dir = o.images;
-  so.downscale = o.downscale;
-  so.test_every = o.test_every;
-  so.train_views = o.train_views;
+  SceneOptions so = o.scene_options;
   so.crop_to_multiple_of_8 = true;
   return so;
 }
@@ -324,7 +308,7 @@ nlohmann::json run_compare(const CompareOptions& o) {
 
   nlohmann::json summary = {
       {"methods", all}, {"settings", settings}, {"run", run_record({{"scene", o.scene}, {"iters", o.iters}})}};
-  if (o.train_views > 0) {
+  if (o.scene_options.train_views > 0) {
     std::vector<std::string> training_views;  // named in the report and compare.json when few-shot
     for (int i : scene.train_indices) training_views.push_back(scene.views[static_cast<size_t>(i)].name);
     summary["training_views"] = training_views;

@@ -10,30 +10,32 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lrf/detail/detail_blend.h"
+#include "lrf/detail/detail_eval.h"
+#include "lrf/autoencoder/latent_source.h"
 #include "lrf/points/initial_points.h"
+#include "lrf/splat/run/scene_fit_options.h"
 #include "lrf/refine/refine.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf {
 
-struct CompareOptions {
-  std::string scene, out, images, autoencoder = "taef2", encoder, decoder, lpips_weights, cache_dir;
-  int downscale = 1, test_every = 8;
+// What every method's field is fitted with (SceneFitOptions: the scene and its views, every method's steps,
+// seed and initial points; out is compare's folder, force retrains every method), the latents
+// (LatentSource) of every latent method, and compare's own settings.
+struct CompareOptions : SceneFitOptions, LatentSource {
+  CompareOptions() { iters = 7000; }
+  // How every row is scored: the latent rows' decoder (also what latent-refined is refined through), LPIPS's
+  // weights, and latent-refined+detail's pass (the detail pass on latent-refined's field).
+  detail::DetailEvalOptions scoring;
   int latent_sh_degree = 1;  // kDefaultLatentShDegree (latent/latent_run.h)
-  int train_views = 0;  // few-shot: K evenly spaced training views for every method (0 = all)
-  int64_t iters = 7000, latent_iters = 0;  // latent_iters 0 = iters
+  int64_t latent_iters = 0;  // 0 = iters
   int64_t nerf_iters = 0;  // latent-nerf steps (0 = nerf::kDefaultNerfIters; --steps counts Gaussian steps)
-  uint64_t seed = 0;
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
-  InitPointsOptions init_points;  // every method starts from the same points
   RefineOptions refine;  // latent-refined: steps, crop, learning rates (run, out, decoder, seed are set here)
-  detail::DetailOptions detail;  // latent-refined+detail: the detail pass on latent-refined's field
   int feature_dim = 0;   // feature-gs: features per Gaussian (0 = Feature 3DGS's default, half the latent channels)
   // Quality curves of other runs ("NAME=CSV", a curve.csv of lrf refine --score-every) drawn in the report
   // beside the latent-refined row's own (with --refine-score-every).
   std::vector<std::string> curves;
-  bool force = false;
 };
 
 // Every method compare knows: rgb and rgb-mip (full resolution), rgb/8, rgb/8-mip, latent, latent-refined,

@@ -63,7 +63,7 @@ std::string method_notes(const CompareOptions& o) {
       {"latent-refined", "latent-refined: the latent field refined through the decoder against the training "
                          "images (lrf refine: " + refine_description(o.refine) + ")."},
       {"latent-refined+detail", "latent-refined+detail: latent-refined's frames with the detail pass: the " +
-                                    std::to_string(o.detail.views) + " nearest training photographs carried into "
+                                    std::to_string(o.scoring.detail.views) + " nearest training photographs carried into "
                                     "each view with the field's depth and blended in where they agree with it and "
                                     "with one another (docs/detail.md)."},
       {"feature-gs", "feature-gs: the Feature-GS baseline (Feature 3DGS's speed-up module): Gaussians carrying " +
@@ -181,14 +181,14 @@ QualityTable write_tables(const CompareOptions& o, const nlohmann::json& all, co
 std::vector<std::string> report_notes(const CompareOptions& o, const nlohmann::json& all, const Scene& scene) {
   std::vector<std::string> notes;
   const Camera& c0 = scene.views[0].camera;
-  if (o.train_views > 0) {
+  if (o.scene_options.train_views > 0) {
     std::string names;
     for (int i : scene.train_indices) names += (names.empty() ? "" : ", ") + scene.views[static_cast<size_t>(i)].name;
-    notes.push_back("Few-shot: every method trained on " + std::to_string(o.train_views) +
+    notes.push_back("Few-shot: every method trained on " + std::to_string(o.scene_options.train_views) +
                     " views, evenly spaced over the non-test views (" + names +
                     "), with initial points triangulated from them (unless --init-points says otherwise).");
   }
-  notes.push_back("Scene " + o.scene + ", test views every " + std::to_string(o.test_every) + "th, scored at " +
+  notes.push_back("Scene " + o.scene + ", test views every " + std::to_string(o.scene_options.test_every) + "th, scored at " +
                   std::to_string(c0.width) + "x" + std::to_string(c0.height) + " (latent " +
                   std::to_string(c0.width / 8) + "x" + std::to_string(c0.height / 8) + "), " +
                   std::to_string(o.iters) + " training steps." + method_notes(o));

@@ -10,18 +10,20 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/camera_path/camera_path.h"
+#include "lrf/pipeline/pipeline.h"
+#include "lrf/scene/synthetic_scene.h"
+
 namespace lrf {
 
+// The job's parts at the demo's small sizes (demo.cpp's constructor): a synthetic scene's views and their
+// size, the pipeline's autoencoder and step counts (its scenes and folders are the demo's), the video's frames.
 struct DemoOptions {
+  DemoOptions();
   std::string output = "out/demo";
-  std::string autoencoder = "taef2";
-  int views = 24;                 // per synthetic scene
-  std::string size = "256x192";   // of the synthetic views (latent fields: 32x24)
-  int64_t field_iters = 1500;     // Stage II steps per field (and per RGB baseline)
-  int64_t stage1_steps = 100;
-  int64_t stage3_steps = 100;
-  int64_t refine_steps = 300;
-  int video_frames = 48;          // 0: no video
+  SyntheticOptions scenes;         // views per scene and their size (latent fields: 8x smaller); seed: each scene's
+  PipelineOptions pipeline;
+  camera_path::PathOptions video;  // the orbit video of the both+refine field; frames 0: no video
   bool force = false;
 };
 

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <optional>
 
+#include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/run_info.h"
 #include "lrf/core/state_dict.h"
@@ -35,6 +36,7 @@ nlohmann::json detail_options_json(const DetailOptions& d) {
 
 nlohmann::json evaluate_with_detail(const std::string& run, const std::string& result_dir,
                                     const DetailEvalOptions& options, const nlohmann::json* base_metrics) {
+  if (options.scale != 1.0) fail_usage("--scale does not apply with --detail: frames are scored at the field's resolution");
   DetailFrames frames(open_field_frames(run, options.decoder), options.detail);
   log_info(frames.describe());
   std::optional<Lpips> lpips;

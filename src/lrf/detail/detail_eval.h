@@ -6,12 +6,13 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/detail/detail_blend.h"
+#include "lrf/field_kinds/field_type.h"
 
 namespace lrf::detail {
 
-struct DetailEvalOptions {
-  std::string decoder;        // decoder override for a latent field ("" = the run's own)
-  std::string lpips_weights;  // "" = no LPIPS
+// The field's scoring (a decoder override for a latent field, LPIPS weights; frames are scored at the
+// field's resolution, so a scale other than 1 is refused) with the detail pass's options.
+struct DetailEvalOptions : FieldScoring {
   DetailOptions detail;
 };
 

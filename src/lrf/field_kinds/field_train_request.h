@@ -7,8 +7,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/autoencoder/latent_source.h"
+#include "lrf/latent/latent_run.h"
+#include "lrf/nerf/nerf_run.h"
 #include "lrf/points/initial_points.h"
 #include "lrf/presets/presets.h"
+#include "lrf/rgb/rgb_train_run.h"
 #include "lrf/scene/scene.h"
 #include "lrf/splat/run/fit_options.h"
 
@@ -16,25 +20,19 @@ namespace lrf {
 
 // The fit every Gaussian field shares (scene, out, steps, SH degree, seed, densification, checkpoints,
 // initial points, preset), with every kind's own settings beside it.
-struct FieldTrainRequest : splat::GaussianFitOptions {
+// Each kind's own settings are the parts its job's options share with the request: RgbFitSettings
+// (rgb), LatentSource and LatentFitSettings (latent; latent-nerf takes LatentSource), NerfFitSettings
+// (latent-nerf).
+struct FieldTrainRequest : splat::GaussianFitOptions,
+                           RgbFitSettings,
+                           LatentSource,
+                           LatentFitSettings,
+                           nerf::NerfFitSettings {
   std::string space = "rgb";
   bool iters_set = false;
   bool sh_degree_set = false;
-  bool mip = false;
-  bool inria_rates = false;  // latent: no faster means and SH in runs under 7000 steps
-  bool white_background = false;
-  int coarse_factor = 1;       // rgb: > 1 trains the first steps on reduced views
-  int64_t coarse_until = -1;   // the coarse phase's last step; -1: where densification ends
-  // latent and latent-nerf: the autoencoder and its latents
-  std::string autoencoder = "taef2";
-  std::string encoder;
-  std::string init = "latents";
-  double rgb_guide = 0;
-  int feature_dim = 0;  // > 0: a feature field (the feature-gs baseline)
-  std::string cache_dir;
-  // latent-nerf
-  int rays = 1024, samples = 32, hash_log2 = 17;
-  bool nerf_option_set = false;  // one of the three above was given
+  bool inria_rates = false;      // latent: no faster means and SH in runs under 7000 steps
+  bool nerf_option_set = false;  // one of NerfFitSettings was given
 };
 
 // `lrf train OUT --resume`: the run continues with its recorded settings; of `given`, only the step count

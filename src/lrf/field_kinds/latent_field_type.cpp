@@ -4,8 +4,9 @@
 
 #include <filesystem>
 
-#include "lrf/core/run_info.h"
 #include "lrf/core/error.h"
+#include "lrf/core/option_parts.h"
+#include "lrf/core/run_info.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/splat/run/train_run.h"
@@ -79,15 +80,11 @@ class LatentFieldType : public FieldType {
     if (o.scene_options.crop_to_multiple_of_8)
       fail_usage("--crop8 does not apply to --space latent: latent views are always cropped to multiples of 8");
     LatentTrainOptions l;
-    static_cast<splat::GaussianFitOptions&>(l) = o;
+    copy_part<splat::GaussianFitOptions>(l, o);
+    copy_part<LatentSource>(l, o);
+    copy_part<LatentFitSettings>(l, o);
     l.init_points = points;
     l.sh_degree = o.sh_degree_set ? o.sh_degree : kDefaultLatentShDegree;
-    l.autoencoder = o.autoencoder;
-    l.encoder = o.encoder;
-    l.init = o.init;
-    l.rgb_guide = o.rgb_guide;
-    l.cache_dir = o.cache_dir;
-    l.feature_dim = o.feature_dim;
     l.short_run_rates = !o.inria_rates;
     if (o.mip) fail_usage("--mip applies to RGB fields (the paper's Mip-Splatting/8 baseline)");
     train_latent_field(l);

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "lrf/core/error.h"
+#include "lrf/core/option_parts.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/nerf/nerf_run.h"
 
@@ -29,21 +30,11 @@ class NerfFieldType : public FieldType {
     if (o.scene_options.crop_to_multiple_of_8)
       fail_usage("--crop8 does not apply to --space latent-nerf: latent views are always cropped to multiples of 8");
     nerf::LatentNerfOptions n;
-    n.scene = o.scene;
-    n.out = o.out;
-    n.autoencoder = o.autoencoder;
-    n.encoder = o.encoder;
-    n.cache_dir = o.cache_dir;
-    n.scene_options = o.scene_options;
+    copy_part<SceneFitOptions>(n, o);
+    copy_part<LatentSource>(n, o);
+    copy_part<nerf::NerfFitSettings>(n, o);
     n.iters = o.iters_set ? o.iters : nerf::kDefaultNerfIters;
-    n.checkpoint_every = o.checkpoint_every;
-    n.rays = o.rays;
-    n.samples = o.samples;
-    n.log2_table = o.hash_log2;
-    n.seed = o.seed;
-    n.force = o.force;
     n.init_points = points;
-    n.preset = o.preset;
     nerf::train_latent_nerf(n);
   }
 

@@ -3,8 +3,9 @@
 
 #include <filesystem>
 
-#include "lrf/core/run_info.h"
 #include "lrf/core/error.h"
+#include "lrf/core/option_parts.h"
+#include "lrf/core/run_info.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"
@@ -23,12 +24,9 @@ namespace {
 
 RgbTrainOptions rgb_options(const FieldTrainRequest& o, const InitPointsOptions& points) {
   RgbTrainOptions r;
-  static_cast<splat::GaussianFitOptions&>(r) = o;
+  copy_part<splat::GaussianFitOptions>(r, o);
+  copy_part<RgbFitSettings>(r, o);
   r.init_points = points;
-  r.mip = o.mip;
-  r.white_background = o.white_background;
-  r.coarse_factor = o.coarse_factor;
-  r.coarse_until = o.coarse_until;
   return r;
 }
 

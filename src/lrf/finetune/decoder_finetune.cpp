@@ -200,16 +200,13 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
              ", Adam lr " + std::to_string(adam.lr()));
   }
 
-  FinetuneLoop loop;
+  FinetuneLoop loop(o);
   loop.task = "finetune-decoder";
-  loop.out = o.out;
   loop.checkpoint = ckpt;
   loop.kind = "finetune-decoder";
   loop.resume_key = resume_key(o).dump();
   loop.resume_hint = "fields, model, batch, crop, weights, learning rate and seed";
   loop.steps = o.steps;
-  loop.checkpoint_every = o.checkpoint_every;
-  loop.resume = o.resume;
   loop.precision = ae->precision();
   loop.adam = &adam;
   loop.group = group.get();

@@ -19,6 +19,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/core/run_control.h"
 #include "lrf/distributed/distributed_options.h"
 
 namespace lrf {
@@ -30,11 +31,12 @@ namespace lrf {
 // 21.47 dB and 0.217 (docs/results.md, "Stage III with seven training scenes, on validation splits").
 constexpr double kRecommendedWeightRoundtrip = 4;
 
-struct DecoderFinetuneOptions {
+// out (RunControl): the fine-tuned decoder (.safetensors).
+struct DecoderFinetuneOptions : RunControl {
+  DecoderFinetuneOptions() { checkpoint_every = 50; }
   std::vector<std::string> fields;             // finished latent runs (`lrf train --space latent`)
   std::string autoencoder = "taef2", encoder;  // must be what every field was trained with
   std::string decoder;                         // start from this decoder ("" = the autoencoder's)
-  std::string out;                             // the fine-tuned decoder (.safetensors)
   int64_t steps = 300;
   int batch = 2;                 // crops per step from training views, and as many from held-out views
   int crop = 128;                // image crop side (multiple of 8), reduced to fit the smallest view
@@ -45,8 +47,6 @@ struct DecoderFinetuneOptions {
   double base_lr = 4.5e-6;       // the paper's base rate; Adam's rate is base_lr x crops per step ...
   double lr = 0;                 // ... unless this is set (> 0)
   uint64_t seed = 0;
-  int64_t checkpoint_every = 50;
-  bool resume = false, force = false;
   // Data parallelism: batch stays the global batch, split over the ranks (world size 1: one process).
   DistributedOptions distributed{0, 1, 0, "127.0.0.1", 29500};
 };

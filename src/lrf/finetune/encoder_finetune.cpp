@@ -239,16 +239,13 @@ EncoderFinetuneResult finetune_encoder(const EncoderFinetuneOptions& o) {
              ", Adam lr " + std::to_string(adam.lr()));
   }
 
-  FinetuneLoop loop;
+  FinetuneLoop loop(o);
   loop.task = "finetune-encoder";
-  loop.out = o.out;
   loop.checkpoint = ckpt;
   loop.kind = "finetune-encoder";
   loop.resume_key = resume_key(o).dump();
   loop.resume_hint = "scenes, model, batch, crop, lambdas, learning rate and seed";
   loop.steps = o.steps;
-  loop.checkpoint_every = o.checkpoint_every;
-  loop.resume = o.resume;
   loop.precision = model->precision();
   loop.adam = &adam;
   loop.group = group.get();

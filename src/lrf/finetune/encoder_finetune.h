@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/core/run_control.h"
 #include "lrf/distributed/distributed_options.h"
 #include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/pair_batches.h"
@@ -24,14 +25,15 @@
 
 namespace lrf {
 
-struct EncoderFinetuneOptions {
+// out (RunControl): the fine-tuned encoder (.safetensors).
+struct EncoderFinetuneOptions : RunControl {
+  EncoderFinetuneOptions() { checkpoint_every = 50; }
   std::vector<std::string> scenes;
   std::vector<std::string> correspondence_files;  // optional, one per scene
   // Optional, one per scene: its image folder and downscale (0: from max_side), for scenes that each need
   // their own (lrf pipeline's PATH:--images=DIR). Recorded only when given, so earlier records still match.
   std::vector<SceneResolution> scene_resolutions;
   std::string autoencoder = "taef2", encoder;     // model and an optional starting encoder
-  std::string out;                                // the fine-tuned encoder (.safetensors)
   int max_side = 640;                             // scenes are downscaled so their longer side fits
   int min_matches = 15;                           // pairs with fewer correspondences are dropped
   PairBatchOptions batch;
@@ -42,8 +44,6 @@ struct EncoderFinetuneOptions {
   double base_lr = 4.5e-6;  // the paper's base rate; the Adam rate is base_lr x images per step ...
   double lr = 0;            // ... unless this is set (> 0)
   uint64_t seed = 0;
-  int64_t checkpoint_every = 50;
-  bool resume = false, force = false;
   // Data parallelism: batch.pairs stays the global batch, split over the ranks (world size 1: one process).
   DistributedOptions distributed{0, 1, 0, "127.0.0.1", 29500};
 };

@@ -19,6 +19,7 @@
 #include <ATen/Tensor.h>
 
 #include "lrf/core/precision.h"
+#include "lrf/core/run_control.h"
 #include "lrf/distributed/data_parallel_group.h"
 #include "lrf/optim/param_adam.h"
 
@@ -39,15 +40,16 @@ struct FinetuneStepLoss {
   std::vector<std::pair<std::string, double>> metrics;    // this rank's parts of the reported terms
 };
 
-struct FinetuneLoop {
+// Made from the fine-tuning's options' RunControl: out (the output file, named in errors), resume and
+// checkpoint_every.
+struct FinetuneLoop : RunControl {
+  explicit FinetuneLoop(const RunControl& control) : RunControl(control) {}
   std::string task;         // "finetune-encoder": progress and messages
-  std::string out;          // the output file, named in errors
   std::string checkpoint;   // the checkpoint file
   std::string kind;         // recorded in the checkpoint ("finetune-encoder")
   std::string resume_key;   // options that must match to resume (JSON text)
   std::string resume_hint;  // what "same options" means, for the refusal
-  int64_t steps = 0, checkpoint_every = 0;
-  bool resume = false;
+  int64_t steps = 0;
   Precision precision = Precision::fp32;
   ParamAdam* adam = nullptr;
   DataParallelGroup* group = nullptr;

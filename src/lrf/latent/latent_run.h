@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/autoencoder/autoencoder.h"
+#include "lrf/autoencoder/latent_source.h"
 #include "lrf/feature/feature_lift.h"
 #include "lrf/latent/latent_normalization.h"
 #include "lrf/points/initial_points.h"
@@ -35,9 +36,9 @@ constexpr int kHalfLatentChannels = -1;
 // A Gaussian field's fit with what a latent field adds. Its scene options' image folder, downscale, test
 // split and few-shot training views are read; the views are always centre-cropped to multiples of 8, and a
 // test list and a forced format are not read for latent fields yet.
-struct LatentTrainOptions : splat::GaussianFitOptions {
-  LatentTrainOptions() { sh_degree = kDefaultLatentShDegree; }
-  std::string autoencoder = "taef2", encoder, init = "latents", cache_dir;
+// What a latent field's fit sets beyond a Gaussian field's and its latents (also lrf train's request).
+struct LatentFitSettings {
+  std::string init = "latents";
   // > 0: the field carries 3 more channels fitted (times this weight) to the training images at latent
   // resolution, and drops them when written (prepare_latent_training's rgb_guide).
   double rgb_guide = 0;
@@ -45,6 +46,10 @@ struct LatentTrainOptions : splat::GaussianFitOptions {
   // features, lifted to the latent channels by a 1x1 convolution trained with them. 0: a latent field.
   // kHalfLatentChannels: Feature 3DGS's default, half the autoencoder's latent channels.
   int feature_dim = 0;
+};
+
+struct LatentTrainOptions : splat::GaussianFitOptions, LatentSource, LatentFitSettings {
+  LatentTrainOptions() { sh_degree = kDefaultLatentShDegree; }
   // A run shorter than 7000 steps moves its means and SH faster (splat::LearningRates::for_short_run);
   // false keeps Inria's rates.
   bool short_run_rates = true;

@@ -109,10 +109,7 @@ LatentTrainResult train_latent_field(const LatentTrainOptions& o) {
   write_json_file(config_path, config);
 
   Trainer trainer(std::move(data.views), std::move(data.init), extent, to);
-  RunOptions ro;
-  ro.out = o.out;
-  ro.resume = o.resume;
-  ro.checkpoint_every = o.checkpoint_every;
+  RunOptions ro(o);
   ro.task = feature_dim > 0 ? "train-feature" : "train-latent";
   if (lift) lift->attach(ro, trainer);
   if (o.rgb_guide > 0) {

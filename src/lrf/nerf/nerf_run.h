@@ -13,10 +13,11 @@
 #include <nlohmann/json.hpp>
 #include <torch/types.h>
 
+#include "lrf/autoencoder/latent_source.h"
 #include "lrf/latent/latent_normalization.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_field.h"
-#include "lrf/points/initial_points.h"
+#include "lrf/splat/run/scene_fit_options.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf::nerf {
@@ -25,19 +26,18 @@ namespace lrf::nerf {
 // rays per view, 17 views) on the 2-core development machine, within the hour the efficiency table allows it.
 constexpr int64_t kDefaultNerfIters = 10000;
 
-struct LatentNerfOptions {
-  std::string scene, out, autoencoder = "taef2", encoder, cache_dir;
-  // The image folder, downscale, test split and few-shot training views (train_views: K evenly spaced
-  // training views; 0 = all), as for latent Gaussian fields: cropped to multiples of 8, no test list.
-  SceneOptions scene_options;
-  int64_t iters = kDefaultNerfIters, checkpoint_every = 1000;
+// scene_options (SceneFitOptions): the image folder, downscale, test split and few-shot training views
+// (train_views: K evenly spaced training views; 0 = all), as for latent Gaussian fields: cropped to multiples
+// of 8, no test list. init_points: the points that bound the scene (SfM, triangulated, a file).
+// The field's shape and sampling, fixed when a run starts (also lrf train's request).
+struct NerfFitSettings {
   int rays = 1024;       // rays per step
   int samples = 32;      // coarse samples per ray, and as many fine ones
   int log2_table = 17;   // hash table entries per level: 2^log2_table
-  uint64_t seed = 0;
-  bool resume = false, force = false;
-  InitPointsOptions init_points;  // the points that bound the scene (SfM, triangulated, a file)
-  std::string preset = "default";  // the --preset the options came from, recorded for --resume
+};
+
+struct LatentNerfOptions : SceneFitOptions, LatentSource, NerfFitSettings {
+  LatentNerfOptions() { iters = kDefaultNerfIters; }
 };
 
 struct LatentNerfResult {

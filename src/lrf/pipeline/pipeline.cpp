@@ -182,7 +182,7 @@ nlohmann::json pipeline_inputs(const PipelineOptions& o, const PipelineScenes& s
                            {"autoencoder", o.autoencoder},
                            {"max_side", o.max_side},
                            {"field_iters", o.field_iters},
-                           {"stage3_steps", o.stage3_steps},
+                           {"stage3_steps", o.stage3.steps},
                            {"refine", refine_options_json(o.refine)},
                            {"refine_rows", o.refine_rows},
                            {"rgb_full", o.rgb_full},
@@ -191,8 +191,8 @@ nlohmann::json pipeline_inputs(const PipelineOptions& o, const PipelineScenes& s
                            {"eval_train_views", o.eval_train_views},
                            {"view_images", kViewImagesVersion}};
   // Recorded only when used, so that older records match.
-  if (o.stage3_lambda_ssim != 0) inputs["stage3_lambda_ssim"] = o.stage3_lambda_ssim;
-  if (o.stage3_weight_roundtrip != 0) inputs["stage3_weight_roundtrip"] = o.stage3_weight_roundtrip;
+  if (o.stage3.lambda_ssim != 0) inputs["stage3_lambda_ssim"] = o.stage3.lambda_ssim;
+  if (o.stage3.weight_roundtrip != 0) inputs["stage3_weight_roundtrip"] = o.stage3.weight_roundtrip;
   for (const auto& s : scenes.train) inputs["train_scenes"].push_back(canonical_path(s));
   for (const auto& s : scenes.eval) inputs["eval_scenes"].push_back(canonical_path(s));
   // Each scene's resolution: the options given after its folder, and the image folder and downscale used.

@@ -31,17 +31,15 @@
 namespace lrf {
 
 struct PipelineOptions {
+  PipelineOptions() { stage3.weight_roundtrip = kRecommendedWeightRoundtrip; }
   std::vector<std::string> train_scenes, eval_scenes;
   std::string autoencoder = "taef2", out, lpips_weights, cache_dir;
   int max_side = 640;               // every scene's images are downscaled to fit (integer factor)
   EncoderFinetuneOptions stage1;    // steps, batch, lambdas, learning rate (scenes and paths are set here)
   int64_t field_iters = 7000;       // Stage II iterations per latent field, and the RGB baselines'
-  int64_t stage3_steps = 300;
-  double stage3_lr = 0;             // 0: the decoder fine-tuning's default
-  int stage3_crop = 0;              // 0: the decoder fine-tuning's default
-  double stage3_lambda_ssim = 0;    // Stage III's D-SSIM share (0: the paper's pure L1)
-  // Stage III's encoded-image term (0: none, the paper's loss; DecoderFinetuneOptions' comment says why 4).
-  double stage3_weight_roundtrip = kRecommendedWeightRoundtrip;
+  // Stage III: steps, crop, loss and learning rate of both decoders (fields, encoder and paths are set here);
+  // its encoded-image term is on (kRecommendedWeightRoundtrip: DecoderFinetuneOptions' comment says why 4).
+  DecoderFinetuneOptions stage3;
   uint64_t seed = 0;
   int eval_train_views = 0;         // few-shot: the evaluation scenes' fields see K training views (0 = all)
   RefineOptions refine;             // the refined rows: steps, crop, learning rates (the rest is set here)

@@ -264,16 +264,11 @@ void ensure_encoder(const PipelineOptions& o, const PipelineScenes& scenes, cons
 
 DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vector<std::string>& fields,
                                        const std::string& encoder, const std::string& out) {
-  DecoderFinetuneOptions d;
+  DecoderFinetuneOptions d = o.stage3;
   d.fields = fields;
   d.autoencoder = o.autoencoder;
   d.encoder = encoder;
   d.out = out;
-  d.steps = o.stage3_steps;
-  if (o.stage3_lr > 0) d.lr = o.stage3_lr;
-  if (o.stage3_crop > 0) d.crop = o.stage3_crop;
-  d.lambda_ssim = o.stage3_lambda_ssim;
-  d.weight_roundtrip = o.stage3_weight_roundtrip;
   d.seed = o.seed;
   return d;
 }

@@ -366,10 +366,7 @@ RefineResult refine_latent_field(const RefineOptions& options) {
   write_json_file(config_path, config);
 
   Trainer trainer(std::move(views), src.field, src.config.value("extent", src.scene.camera_extent()), to);
-  RunOptions ro;
-  ro.out = o.out;
-  ro.resume = o.resume;
-  ro.checkpoint_every = o.checkpoint_every;
+  RunOptions ro(o);
   ro.log_every = 10;
   ro.task = "refine";
   if (decoder_adam) {

@@ -16,11 +16,14 @@
 
 #include <nlohmann/json.hpp>
 
+#include "lrf/core/run_control.h"
+
 namespace lrf {
 
-struct RefineOptions {
+// out (RunControl): the refined run.
+struct RefineOptions : RunControl {
+  RefineOptions() { checkpoint_every = 500; }
   std::string run;      // a finished latent run (lrf train --space latent)
-  std::string out;      // the refined run
   std::string decoder;  // decoder to refine through ("" = the run's own: its autoencoder's, or the one it
                         //   was refined through)
   // The defaults below make the refined row of `lrf compare` a matter of minutes (issue 52; docs/results.md,
@@ -82,12 +85,10 @@ struct RefineOptions {
   int64_t densify_interval = 100;
   double densify_grad = 2e-4;
   uint64_t seed = 0;
-  int64_t checkpoint_every = 500;
   // > 0: every this many steps (and at the last) the field so far is scored on the scene's test views,
   // decoded by the decoder so far, into OUT/curve.csv: quality against the wall time of the whole row
   // (encode + Stage II + refinement so far; the scoring's own time is left out). Changes nothing else.
   int64_t score_every = 0;
-  bool resume = false, force = false;
 };
 
 struct RefineResult {

@@ -115,10 +115,7 @@ RgbTrainResult train_rgb_field(const RgbTrainOptions& o) {
   // The views are decoded after config.json is written: a folder whose images fail to decode says what
   // it was meant to be, and a rerun takes it over (stopped_before_first_checkpoint).
   Trainer trainer(training_views(scene, o.factor), std::move(init), extent, to);
-  RunOptions ro;
-  ro.out = o.out;
-  ro.resume = o.resume;
-  ro.checkpoint_every = o.checkpoint_every;
+  RunOptions ro(o);
   ro.task = o.task;
   ro.prepared_seconds = preparing.seconds();
   const RunSummary summary = run_training(trainer, ro);

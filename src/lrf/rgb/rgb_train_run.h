@@ -19,15 +19,19 @@
 
 namespace lrf {
 
-// A Gaussian field's fit (scene, length, densification, seed, points, ...) with what an RGB field adds.
-struct RgbTrainOptions : splat::GaussianFitOptions {
-  // Training views reduced by this factor in width and height (area-averaged, intrinsics scaled): the
-  // compare rows' /8. Their size must be a multiple of it (crop_to_multiple_of_8 makes 2, 4 and 8 exact).
-  int factor = 1;
+// What an RGB field's fit sets beyond a Gaussian field's (also lrf train's request, field_kinds/).
+struct RgbFitSettings {
   bool mip = false;  // Mip-Splatting's 3D smoothing and 2D Mip filters
   bool white_background = false;
   int coarse_factor = 1;      // > 1 trains the first steps on reduced views (TrainerOptions::coarse_factor)
   int64_t coarse_until = -1;  // the coarse phase's last step; -1: where densification ends
+};
+
+// A Gaussian field's fit (scene, length, densification, seed, points, ...) with what an RGB field adds.
+struct RgbTrainOptions : splat::GaussianFitOptions, RgbFitSettings {
+  // Training views reduced by this factor in width and height (area-averaged, intrinsics scaled): the
+  // compare rows' /8. Their size must be a multiple of it (crop_to_multiple_of_8 makes 2, 4 and 8 exact).
+  int factor = 1;
   std::string task = "train";  // the progress line's label
 };
 

@@ -9,6 +9,7 @@
 #include <functional>
 #include <string>
 
+#include "lrf/core/run_control.h"
 #include "lrf/splat/run/output_folder.h"
 #include "lrf/splat/train/trainer.h"
 
@@ -34,10 +35,10 @@ std::string checkpoint_path(const std::string& out);
 // exists. point_cloud.ply alone does not say so: every checkpoint refreshes it (see above).
 bool run_finished(const std::string& out);
 
-struct RunOptions {
-  std::string out;
-  bool resume = false;
-  int64_t checkpoint_every = 1000;
+// Made from the job's options' RunControl (out, resume, checkpoint_every; force is the job's own business,
+// done by prepare_output_dir before the run).
+struct RunOptions : RunControl {
+  explicit RunOptions(const RunControl& control = {}) : RunControl(control) {}
   int64_t log_every = 10;  // rows of train_log.csv (mean loss over the rows' steps)
   std::string task = "train";
   // Seconds the job spent before its first step (scene, points, encoded views): the forecast counts them.
