@@ -14,6 +14,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/eval/table.h"
 #include "lrf/finetune/pair_batches.h"
+#include "lrf/pipeline/pipeline_jobs.h"
 #include "lrf/pipeline/pipeline_paths.h"
 #include "lrf/pipeline/pipeline_plan.h"
 #include "lrf/pipeline/pipeline_report.h"
@@ -87,18 +88,20 @@ std::string missing(const UnitNeeds& needs, const UnitNeeds& ready) {
 
 // One shard's share of the per-scene units (see run_pipeline in pipeline.h): every n-th of the plan, less
 // those that need a stage the unsharded command makes.
-nlohmann::json run_shard(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
-  const std::string me = "shard " + std::to_string(o.shard_index) + "/" + std::to_string(o.shard_count);
+nlohmann::json run_shard(int index, int count, const PipelineJobs& jobs, const PipelineScenes& scenes,
+                         const PipelinePaths& paths) {
+  const std::string me = "shard " + std::to_string(index) + "/" + std::to_string(count);
   const auto fields = training_fields(scenes, paths);
-  const UnitNeeds ready{encoder_finished(encoder_options(o, scenes, paths)),
-                        decoder_finished(decoder_options(o, fields.at("stock"), "", paths.decoder("stock"))),
-                        decoder_finished(decoder_options(o, fields.at("ft"), paths.encoder(), paths.decoder("ft")))};
+  const UnitNeeds ready{
+      encoder_finished(jobs.stage1),
+      decoder_finished(decoder_options(jobs.stage3, fields.at("stock"), "", paths.decoder("stock"))),
+      decoder_finished(decoder_options(jobs.stage3, fields.at("ft"), paths.encoder(), paths.decoder("ft")))};
   std::map<std::string, EvaluatedScene> scored;  // the tables are the unsharded command's
-  std::vector<PipelineUnit> units = training_field_units(o, scenes, paths);
-  for (PipelineUnit& u : evaluation_units(o, scenes, paths, &scored)) units.push_back(std::move(u));
+  std::vector<PipelineUnit> units = training_field_units(jobs, scenes, paths);
+  for (PipelineUnit& u : evaluation_units(jobs, scenes, paths, &scored)) units.push_back(std::move(u));
   nlohmann::json done = nlohmann::json::array(), left = nlohmann::json::array();
   for (size_t i = 0; i < units.size(); ++i) {
-    if (static_cast<int>(i % static_cast<size_t>(o.shard_count)) != o.shard_index) continue;
+    if (static_cast<int>(i % static_cast<size_t>(count)) != index) continue;
     const std::string needs = missing(units[i].needs, ready);
     if (!needs.empty()) {
       log_info(me + ": left " + units[i].name + " for later: it needs " + needs);
@@ -132,7 +135,7 @@ void require_same_view_images(const PipelinePaths& paths) {
 }
 
 // Wall time per stage (stage_times.h), from the records of the finished steps.
-StageTimes stage_times_of(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths,
+StageTimes stage_times_of(const PipelineJobs& jobs, const PipelineScenes& scenes, const PipelinePaths& paths,
                           const std::map<std::string, std::vector<std::string>>& train_fields) {
   StageTimes times;
   times.add("Stage I", "encoder, on " + std::to_string(scenes.train.size()) + " training scene(s)", 1,
@@ -153,19 +156,19 @@ StageTimes stage_times_of(const PipelineOptions& o, const PipelineScenes& scenes
     const std::string name = paths.eval_label(s);
     times.add("Stage II", name + ": latent fields (stock and Stage I encoder)", 2,
               field_run_seconds(paths.eval_field(s, "stock")) + field_run_seconds(paths.eval_field(s, "ft")));
-    if (o.refine_rows) {
+    if (jobs.refine_rows) {
       times.add("refinement", name + ": the stock+refine and both+refine fields", 2,
                 field_run_seconds(paths.eval_field(s, "stock-refined")) +
                     field_run_seconds(paths.eval_field(s, "ft-refined")));
     }
-    if (o.rgb_baseline) {
+    if (!jobs.baselines.empty()) {
       double rgb = 0;
       std::string rows;
-      for (const RgbBaseline& b : rgb_baselines(o)) {
+      for (const RgbBaseline& b : jobs.baselines) {
         rgb += field_run_seconds(paths.eval_field(s, b.tag));
         rows += std::string(rows.empty() ? "" : ", ") + b.row;
       }
-      times.add("baselines", name + ": RGB fields (" + rows + ")", static_cast<int>(rgb_baselines(o).size()), rgb);
+      times.add("baselines", name + ": RGB fields (" + rows + ")", static_cast<int>(jobs.baselines.size()), rgb);
     }
   }
   return times;
@@ -215,14 +218,14 @@ struct TrainedStages {
 };
 
 // Stage I, then Stage II on the training scenes with both encoders, then Stage III on each set.
-TrainedStages train_stages(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
-  ensure_encoder(o, scenes, paths);
+TrainedStages train_stages(const PipelineJobs& jobs, const PipelineScenes& scenes, const PipelinePaths& paths) {
+  ensure_encoder(jobs.stage1);
   TrainedStages trained;
-  trained.encoder = paths.encoder();
-  for (const PipelineUnit& unit : training_field_units(o, scenes, paths)) unit.work();
+  trained.encoder = jobs.stage1.out;
+  for (const PipelineUnit& unit : training_field_units(jobs, scenes, paths)) unit.work();
   trained.fields = training_fields(scenes, paths);
-  ensure_decoder(o, trained.fields.at("stock"), "", paths.decoder("stock"));
-  ensure_decoder(o, trained.fields.at("ft"), trained.encoder, paths.decoder("ft"));
+  ensure_decoder(decoder_options(jobs.stage3, trained.fields.at("stock"), "", paths.decoder("stock")));
+  ensure_decoder(decoder_options(jobs.stage3, trained.fields.at("ft"), trained.encoder, paths.decoder("ft")));
   return trained;
 }
 
@@ -271,14 +274,15 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   fs::create_directories(o.out);
   // Shards share the folder with each other (each artefact is locked by the job writing it) and leave the
   // record, the tables and the report to the unsharded command.
-  if (o.shard_count > 1) return run_shard(o, scenes, paths);
+  const PipelineJobs jobs = pipeline_jobs(o, scenes, paths);
+  if (o.shard_count > 1) return run_shard(o.shard_index, o.shard_count, jobs, scenes, paths);
   const Stopwatch session;
   const FolderLock lock(o.out);  // the stages below take their own locks on their own outputs
   nlohmann::json record = run_record(pipeline_inputs(o, scenes));
   const std::string record_path = paths.output("pipeline", "json");
   write_json_file(record_path, record);
 
-  const TrainedStages trained = train_stages(o, scenes, paths);
+  const TrainedStages trained = train_stages(jobs, scenes, paths);
   record["trained_on"] = trained_on(trained, scenes);
   record["artifacts"] = {{"encoder", trained.encoder},
                          {"decoder_stock", paths.decoder("stock")},
@@ -287,7 +291,7 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
   write_json_file(record_path, record);
 
   std::map<std::string, EvaluatedScene> scored;
-  for (const PipelineUnit& unit : evaluation_units(o, scenes, paths, &scored)) unit.work();
+  for (const PipelineUnit& unit : evaluation_units(jobs, scenes, paths, &scored)) unit.work();
   std::vector<EvaluatedScene> evaluated;
   for (const auto& s : scenes.eval) {
     EvaluatedScene& scene = scored[s];
@@ -295,11 +299,11 @@ nlohmann::json run_pipeline(const PipelineOptions& o) {
     add_photos(s, scenes.used.at(s), &scene);
     evaluated.push_back(std::move(scene));
   }
-  const StageTimes times = stage_times_of(o, scenes, paths, trained.fields);
+  const StageTimes times = stage_times_of(jobs, scenes, paths, trained.fields);
   const ReportTable stage_table = times.table();
   write_table_csv(paths.output("stages", "csv"), stage_table.header, stage_table.rows);
   write_table_markdown(paths.output("stages", "md"), stage_table.header, stage_table.rows);
-  const AblationRecord ablation = write_ablation(o, scenes, paths, evaluated, stage_table);
+  const AblationRecord ablation = write_ablation(jobs, scenes, paths, evaluated, stage_table);
 
   record["results"] = ablation.results;
   record["mean"] = ablation.mean;

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "lrf/pipeline/pipeline.h"
+#include "lrf/pipeline/pipeline_jobs.h"
 #include "lrf/pipeline/pipeline_paths.h"
 #include "lrf/pipeline/pipeline_report.h"
 #include "lrf/pipeline/pipeline_scenes.h"
@@ -28,13 +28,13 @@ struct PipelineUnit {
 };
 
 // The training scenes' fields, stock and Stage I encoder ("ft").
-std::vector<PipelineUnit> training_field_units(const PipelineOptions& o, const PipelineScenes& scenes,
+std::vector<PipelineUnit> training_field_units(const PipelineJobs& jobs, const PipelineScenes& scenes,
                                                const PipelinePaths& paths);
 
 // Each evaluation scene's fields and rows, in ablation_rows()'s groups: the stock rows, the decoder row, the
 // Stage I rows, the both rows (with their refinement and detail pass) and each RGB baseline. Each unit
 // puts the scores it made or reused, and where its test-view images are, into `scored` (by scene folder).
-std::vector<PipelineUnit> evaluation_units(const PipelineOptions& o, const PipelineScenes& scenes,
+std::vector<PipelineUnit> evaluation_units(const PipelineJobs& jobs, const PipelineScenes& scenes,
                                            const PipelinePaths& paths, std::map<std::string, EvaluatedScene>* scored);
 
 }  // namespace lrf

@@ -53,7 +53,7 @@ std::vector<ReportView> scene_views(const EvaluatedScene& scene) {
   return test_view_report(scene.photos, rows, {{"psnr", "PSNR"}, {"flip", "FLIP"}}, scene.label + " / ");
 }
 
-std::vector<std::string> report_notes(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths,
+std::vector<std::string> report_notes(const PipelineJobs& jobs, const PipelineScenes& scenes, const PipelinePaths& paths,
                                       const std::vector<EvaluatedScene>& evaluated, const std::string& mean_note) {
   std::vector<std::string> notes;
   std::string train_list, eval_list, resolutions;
@@ -62,16 +62,16 @@ std::vector<std::string> report_notes(const PipelineOptions& o, const PipelineSc
   for (const auto& e : evaluated)
     if (!e.resolution.empty()) resolutions += std::string(resolutions.empty() ? "" : "; ") + e.resolution;
   notes.push_back("Training scenes (Stage I and Stage III): " + train_list + ". Evaluation scenes (unseen by both): " +
-                  eval_list + ". Autoencoder " + o.autoencoder + "; " +
-                  (o.max_side > 0 ? "every scene without a --downscale of its own downscaled so its longer side "
-                                    "is at most " + std::to_string(o.max_side) + " px"
+                  eval_list + ". Autoencoder " + jobs.latent_field.autoencoder + "; " +
+                  (jobs.stage1.max_side > 0 ? "every scene without a --downscale of its own downscaled so its longer side "
+                                    "is at most " + std::to_string(jobs.stage1.max_side) + " px"
                                   : std::string("every scene at its images' size unless it gives a --downscale")) +
-                  "; latent fields of " + std::to_string(o.field_iters) + " training steps.");
+                  "; latent fields of " + std::to_string(jobs.latent_field.iters) + " training steps.");
   if (!resolutions.empty()) notes.push_back("Evaluated at: " + resolutions + ".");
   if (!mean_note.empty()) notes.push_back(mean_note);
-  if (o.eval_train_views > 0) {
+  if (jobs.eval_train_views > 0) {
     notes.push_back("Few-shot (" + paths.protocol.substr(1) + " in the scene names): the evaluation scenes' fields "
-                    "(latent, refined and RGB) trained on only " + std::to_string(o.eval_train_views) +
+                    "(latent, refined and RGB) trained on only " + std::to_string(jobs.eval_train_views) +
                     " views, evenly spaced over the non-test views; Stage I, Stage III and the training scenes' "
                     "fields are the folder's own, shared with its full-view table (ablation.csv).");
   }
@@ -79,7 +79,7 @@ std::vector<std::string> report_notes(const PipelineOptions& o, const PipelineSc
                   "decoder; encoder = Stage I encoder; decoder = Stage III decoder fine-tuned on stock-encoder "
                   "fields; both = Stage I encoder and the decoder fine-tuned on its fields. stock+refine and "
                   "both+refine: those fields refined through their decoder against the scene's training images "
-                  "(lrf refine: " + refine_description(o.refine) + "). Image-space baselines: rgb/8 and "
+                  "(lrf refine: " + refine_description(jobs.refine) + "). Image-space baselines: rgb/8 and "
                   "rgb/8-mip = RGB 3DGS and Mip-Splatting trained at latent resolution (the paper's 3DGS/8 and "
                   "Mip-Splatting/8), rgb = RGB 3DGS at full resolution. \u0394 PSNR is against the stock row.");
   return notes;
@@ -87,7 +87,7 @@ std::vector<std::string> report_notes(const PipelineOptions& o, const PipelineSc
 
 }  // namespace
 
-AblationRecord write_ablation(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths,
+AblationRecord write_ablation(const PipelineJobs& jobs, const PipelineScenes& scenes, const PipelinePaths& paths,
                               const std::vector<EvaluatedScene>& evaluated, const ReportTable& stage_times) {
   const std::vector<std::string>& header = ablation_header();
   AblationRecord record;
@@ -127,7 +127,7 @@ AblationRecord write_ablation(const PipelineOptions& o, const PipelineScenes& sc
   ReportTable mean_table{mean_title, {header.begin() + 1, header.end()}, {}, {better.begin() + 1, better.end()}};
   for (const Row& r : mean.rows) mean_table.rows.push_back(Row(r.begin() + 1, r.end()));
   if (several_scenes) spec.tables.push_back(mean_table);
-  spec.notes = report_notes(o, scenes, paths, evaluated, mean_note);
+  spec.notes = report_notes(jobs, scenes, paths, evaluated, mean_note);
   spec.tables.push_back(stage_times);
   write_html_report(paths.output("report", "html"), spec);
 

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/eval/test_view_report.h"
-#include "lrf/pipeline/pipeline.h"
+#include "lrf/pipeline/pipeline_jobs.h"
 #include "lrf/pipeline/pipeline_paths.h"
 #include "lrf/pipeline/pipeline_scenes.h"
 #include "lrf/eval/report.h"
@@ -31,7 +31,7 @@ struct AblationRecord {
 };
 
 // Writes ablation.csv, ablation.md and report.html (with `stage_times` as its last table) of this protocol.
-AblationRecord write_ablation(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths,
+AblationRecord write_ablation(const PipelineJobs& jobs, const PipelineScenes& scenes, const PipelinePaths& paths,
                               const std::vector<EvaluatedScene>& evaluated, const ReportTable& stage_times);
 
 }  // namespace lrf

@@ -38,10 +38,10 @@ nlohmann::json field_settings(const std::string& scene, const std::string& image
 }
 
 nlohmann::json wanted_field_settings(const std::string& scene, const SceneResolution& resolution, int train_views,
-                                     const PipelineOptions& o, const std::string& autoencoder_id) {
+                                     const SceneFitOptions& job, const std::string& autoencoder_id) {
   // The pipeline's fields always start from `auto` points.
   const std::optional<int> rule = few_shot_track_rule("auto", train_views);
-  return field_settings(scene, resolution.images, resolution.downscale, train_views, o.field_iters, o.seed,
+  return field_settings(scene, resolution.images, resolution.downscale, train_views, job.iters, job.seed,
                         autoencoder_id, rule ? nlohmann::json(*rule) : nlohmann::json());
 }
 
@@ -135,31 +135,20 @@ nlohmann::json scores_of_field(const std::string& field, const std::string& dir,
   return m;
 }
 
-// The RGB rows are scored as lrf eval scores an RGB run.
-RgbEvalOptions rgb_eval_options(const PipelineOptions& o) {
-  RgbEvalOptions e;
-  e.lpips_weights = o.lpips_weights;
-  return e;
-}
-
 }  // namespace
 
-void ensure_latent_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
+void ensure_latent_field(const LatentTrainOptions& job, const std::string& scene, const SceneResolution& resolution,
                          int train_views, const std::string& dir, const std::string& encoder) {
-  ArtefactLife life =
-      field_life(dir, wanted_field_settings(scene, resolution, train_views, o, autoencoder_identity(o.autoencoder, encoder)));
+  ArtefactLife life = field_life(
+      dir, wanted_field_settings(scene, resolution, train_views, job, autoencoder_identity(job.autoencoder, encoder)));
   life.make = [&](bool resume) {
-    LatentTrainOptions l;
+    LatentTrainOptions l = job;
     l.scene = scene;
     l.out = dir;
     l.scene_options.images_dir = resolution.images;
     l.scene_options.downscale = resolution.downscale;
     l.scene_options.train_views = train_views;
-    l.autoencoder = o.autoencoder;
     l.encoder = encoder;
-    l.cache_dir = o.cache_dir;
-    l.iters = o.field_iters;
-    l.seed = o.seed;
     l.resume = resume;
     l.force = !resume;
     log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
@@ -171,34 +160,20 @@ void ensure_latent_field(const PipelineOptions& o, const std::string& scene, con
   if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing field " + dir);
 }
 
-std::vector<RgbBaseline> rgb_baselines(const PipelineOptions& o) {
-  static const std::vector<RgbBaseline> all = {{"rgb/8", "rgb8", 8, false}, {"rgb/8-mip", "rgb8mip", 8, true},
-                                               {"rgb", "rgb", 1, false},     {"rgb-mip", "rgbmip", 1, true}};
-  std::vector<RgbBaseline> used;
-  if (!o.rgb_baseline) return used;
-  for (const RgbBaseline& b : all)
-    if (b.factor > 1 || o.rgb_full) used.push_back(b);
-  return used;
-}
-
 // An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
-void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const SceneResolution& resolution,
+void ensure_rgb_field(const RgbTrainOptions& job, const std::string& scene, const SceneResolution& resolution,
                       const std::string& dir, const RgbBaseline& baseline) {
   const int factor = baseline.factor;
   const bool mip = baseline.mip;
-  ArtefactLife life = field_life(dir, wanted_field_settings(scene, resolution, o.eval_train_views, o, ""));
+  ArtefactLife life = field_life(dir, wanted_field_settings(scene, resolution, job.scene_options.train_views, job, ""));
   life.make = [&](bool resume) {
-    RgbTrainOptions b;
+    RgbTrainOptions b = job;
     b.scene = scene;
     b.scene_options.images_dir = resolution.images;
     b.scene_options.downscale = resolution.downscale;
-    b.scene_options.train_views = o.eval_train_views;
-    b.scene_options.crop_to_multiple_of_8 = true;  // the latent fields' views
     b.out = dir;
     b.factor = factor;
-    b.iters = o.field_iters;
     b.mip = mip;
-    b.seed = o.seed;
     b.resume = resume;
     b.force = !resume;
     b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
@@ -210,46 +185,32 @@ void ensure_rgb_field(const PipelineOptions& o, const std::string& scene, const 
   if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing field " + dir);
 }
 
-nlohmann::json ensure_rgb_eval(const PipelineOptions& o, const std::string& dir) {
+// The RGB rows are scored as lrf eval scores an RGB run.
+nlohmann::json ensure_rgb_eval(const FieldScoring& scoring, const std::string& dir) {
   auto scores = reusable_scores((fs::path(dir) / "metrics.json").string());
-  return scores ? *scores : evaluate_rgb_run(dir, rgb_eval_options(o));
+  if (scores) return *scores;
+  RgbEvalOptions e;
+  e.lpips_weights = scoring.lpips_weights;
+  return evaluate_rgb_run(dir, e);
 }
 
 
 // A field refined through `decoder` (refine_folder.h: reused, continued to more steps, resumed or made).
-void refine_eval_field(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+void refine_eval_field(const RefineOptions& job, const std::string& field, const std::string& decoder,
                        const std::string& dir) {
-  RefineOptions r = o.refine;
+  RefineOptions r = job;
   r.run = field;
   r.out = dir;
   r.decoder = decoder;
-  r.seed = o.seed;
-  r.cache_dir = o.cache_dir;
   log_info("== refinement " + dir + ": up to " + refine_length_text(r) + " of " + field +
            " through its decoder (a finished one is reused)");
   ensure_refined_field(r, "the refined field", "use another output folder or remove " + dir, false);
 }
 
-EncoderFinetuneOptions encoder_options(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
-  EncoderFinetuneOptions e = o.stage1;
-  e.scenes = scenes.train;
-  e.scene_resolutions.clear();
-  if (scenes.any_given(scenes.train)) {
-    for (const auto& s : scenes.train) e.scene_resolutions.push_back(scenes.given.at(s));
-  }
-  e.correspondence_files.clear();
-  e.autoencoder = o.autoencoder;
-  e.encoder.clear();
-  e.out = paths.encoder();
-  e.max_side = o.max_side;
-  e.seed = o.seed;
-  return e;
-}
-
 bool encoder_finished(const EncoderFinetuneOptions& e) { return finished_as_wanted(encoder_life(e)); }
 
-void ensure_encoder(const PipelineOptions& o, const PipelineScenes& scenes, const PipelinePaths& paths) {
-  EncoderFinetuneOptions e = encoder_options(o, scenes, paths);
+void ensure_encoder(const EncoderFinetuneOptions& stage1) {
+  EncoderFinetuneOptions e = stage1;
   ArtefactLife life = encoder_life(e);
   life.make = [&e](bool resume) {
     e.resume = resume;
@@ -262,50 +223,46 @@ void ensure_encoder(const PipelineOptions& o, const PipelineScenes& scenes, cons
   if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage I encoder " + e.out);
 }
 
-DecoderFinetuneOptions decoder_options(const PipelineOptions& o, const std::vector<std::string>& fields,
+DecoderFinetuneOptions decoder_options(const DecoderFinetuneOptions& job, const std::vector<std::string>& fields,
                                        const std::string& encoder, const std::string& out) {
-  DecoderFinetuneOptions d = o.stage3;
+  DecoderFinetuneOptions d = job;
   d.fields = fields;
-  d.autoencoder = o.autoencoder;
   d.encoder = encoder;
   d.out = out;
-  d.seed = o.seed;
   return d;
 }
 
 bool decoder_finished(const DecoderFinetuneOptions& d) { return finished_as_wanted(decoder_life(d)); }
 
-void ensure_decoder(const PipelineOptions& o, const std::vector<std::string>& fields, const std::string& encoder,
-                    const std::string& out) {
-  DecoderFinetuneOptions d = decoder_options(o, fields, encoder, out);
+void ensure_decoder(const DecoderFinetuneOptions& stage3) {
+  DecoderFinetuneOptions d = stage3;
   ArtefactLife life = decoder_life(d);
-  life.make = [&d, &out](bool resume) {
+  life.make = [&d](bool resume) {
     d.resume = resume;
     d.force = !resume;
-    log_info("== Stage III " + out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
+    log_info("== Stage III " + d.out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
              " steps on " + std::to_string(d.fields.size()) + " field(s)");
     finetune_decoder(d);
   };
-  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage III decoder " + out);
+  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage III decoder " + d.out);
 }
 
-nlohmann::json ensure_latent_eval(const PipelineOptions& o, const std::string& field, const std::string& decoder,
+nlohmann::json ensure_latent_eval(const FieldScoring& scoring, const std::string& field, const std::string& decoder,
                                   const std::string& dir) {
   return scores_of_field(field, dir, nullptr, [&] {
     LatentEvalOptions e;
     e.decoder = decoder;
-    e.lpips_weights = o.lpips_weights;
+    e.lpips_weights = scoring.lpips_weights;
     e.output_dir = dir;
     return evaluate_latent_run(field, e);
   });
 }
 
-nlohmann::json ensure_detail_eval(const PipelineOptions& o, const std::string& field, const std::string& dir,
-                                  const nlohmann::json& field_scores) {
-  return scores_of_field(field, dir, detail::detail_options_json(o.detail), [&] {
-    detail::DetailEvalOptions e;
-    e.lpips_weights = o.lpips_weights;
-    e.detail = o.detail;
+nlohmann::json ensure_detail_eval(const detail::DetailEvalOptions& scoring, const std::string& field,
+                                  const std::string& dir, const nlohmann::json& field_scores) {
+  return scores_of_field(field, dir, detail::detail_options_json(scoring.detail), [&] {
+    detail::DetailEvalOptions e = scoring;
+    e.decoder.clear();  // the refined field's own
     return detail::evaluate_with_detail(field, dir, e, &field_scores);
   });
 }
