@@ -10,7 +10,7 @@
 set(LRF_FLOORS
   "core"
   "scene,autoencoder/conv,autoencoder,eval,optim,distributed,presets"
-  "splat/raster,splat,splat/train,run,align,points,splat/run,camera_path"
+  "splat/raster,splat,splat/train,align,points,splat/run,camera_path"
   "feature,rgb,latent,nerf,refine,finetune"
   "frames,field_kinds,detail,video,viewer,compare,pipeline,demo")
 set(LRF_FLOOR_NAMES

@@ -12,7 +12,7 @@
 #include "lrf/core/safetensors.h"
 #include "lrf/core/torch_zip.h"
 #include "lrf/latent/latent_config.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/splat/run/run_config.h"
 #include "lrf/splat/ply_io.h"
 

@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "lrf/latent/latent_config.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/scene/raw_scene.h"
 #include "lrf/splat/run/run_config.h"
 #include "test_helpers.h"

@@ -20,7 +20,7 @@
 #include "lrf/frames/field_frames.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/viewer/scene_json.h"
 #include "test_helpers.h"
 

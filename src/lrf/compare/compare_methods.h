@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 
 namespace lrf {
 

@@ -10,7 +10,7 @@
 
 #include "lrf/field_kinds/field_train_request.h"
 #include "lrf/frames/field_frames.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 
 namespace lrf {
 

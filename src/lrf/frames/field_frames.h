@@ -9,7 +9,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf {

@@ -2,7 +2,7 @@
 
 #include "lrf/core/error.h"
 #include "lrf/feature/feature_lift.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 
 namespace lrf {
 

@@ -13,7 +13,7 @@
 #include "lrf/latent/encoded_scene.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"
 

@@ -11,7 +11,7 @@
 #include "lrf/latent/latent_scoring.h"
 #include "lrf/latent/trained_run_checks.h"
 #include "lrf/nerf/nerf_render.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/scene/run_scene_location.h"
 #include "lrf/splat/run/run_config.h"
 #include "lrf/splat/run/run_folder.h"

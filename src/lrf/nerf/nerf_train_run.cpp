@@ -19,7 +19,7 @@
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"
 #include "lrf/nerf/nerf_trainer.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"
 

@@ -12,7 +12,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/core/training_steps.h"
 #include "lrf/rgb/rgb_field.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 #include "lrf/splat/run/run_config.h"
 #include "lrf/splat/run/run_folder.h"
 #include "lrf/splat/run/train_run.h"

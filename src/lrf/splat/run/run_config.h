@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/scene/scene.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 
 namespace lrf::splat {
 

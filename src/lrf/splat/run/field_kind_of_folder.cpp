@@ -3,7 +3,7 @@
 #include <filesystem>
 
 #include "lrf/core/run_info.h"
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 
 namespace fs = std::filesystem;
 

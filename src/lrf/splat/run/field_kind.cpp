@@ -1,4 +1,4 @@
-#include "lrf/run/field_kind.h"
+#include "lrf/splat/run/field_kind.h"
 
 #include <nlohmann/json.hpp>
 
