@@ -34,6 +34,7 @@
 #include "lrf/core/log.h"
 #include "lrf/core/threads.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/refine/refine.h"
 
 namespace fs = std::filesystem;

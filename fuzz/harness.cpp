@@ -4,10 +4,11 @@
 #include <stdexcept>
 
 #include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_io.h"
 #include "lrf/core/error.h"
 #include "lrf/core/npy.h"
 #include "lrf/scene/colmap_model.h"
-#include "lrf/scene/raw_scene.h"
+#include "lrf/scene/transforms_json.h"
 #include "lrf/scene/scene_spec.h"
 
 namespace lrf::fuzz {

@@ -11,6 +11,7 @@
 
 #include "harness.h"
 #include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_io.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/run_info.h"

@@ -6,6 +6,9 @@
 #include <gtest/gtest.h>
 
 #include "lrf/camera_path/camera_path.h"
+#include "lrf/camera_path/interp_path.h"
+#include "lrf/camera_path/orbit_path.h"
+#include "lrf/camera_path/spiral_path.h"
 #include "lrf/camera_path/pose_math.h"
 #include "lrf/scene/scene.h"
 #include "test_helpers.h"

@@ -5,7 +5,7 @@
 
 #include "lrf/latent/latent_config.h"
 #include "lrf/splat/run/field_kind.h"
-#include "lrf/scene/raw_scene.h"
+#include "lrf/scene/transforms_json.h"
 #include "lrf/splat/run/run_config.h"
 #include "test_helpers.h"
 

@@ -5,6 +5,9 @@
 #include <gtest/gtest.h>
 
 #include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_database.h"
+#include "lrf/align/correspondences_matching.h"
+#include "lrf/align/correspondences_io.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "test_helpers.h"

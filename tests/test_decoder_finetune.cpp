@@ -12,6 +12,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/core/safetensors.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/finetune/decoder_finetune.h"
 #include "test_helpers.h"
 

@@ -18,6 +18,7 @@
 #include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/refine/refine.h"
 #include "lrf/splat/ply_io.h"
 #include "test_helpers.h"

@@ -15,6 +15,7 @@
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/splat/ply_io.h"
 #include "test_helpers.h"
 

@@ -19,8 +19,10 @@
 #include "lrf/field_kinds/field_type.h"
 #include "lrf/frames/field_frames.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 #include "lrf/nerf/nerf_trainer.h"
 #include "lrf/splat/run/field_kind.h"
+#include "lrf/splat/run/field_kind_of_folder.h"
 #include "lrf/viewer/scene_json.h"
 #include "test_helpers.h"
 

@@ -16,6 +16,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/refine/decoded_loss.h"
 #include "lrf/refine/refine.h"
 #include "lrf/splat/ply_io.h"

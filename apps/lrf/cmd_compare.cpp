@@ -12,6 +12,7 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/compare/compare.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 #include "lrf/feature/feature_lift.h"
 
 namespace {

@@ -7,6 +7,9 @@
 
 #include "command.h"
 #include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_database.h"
+#include "lrf/align/correspondences_matching.h"
+#include "lrf/align/correspondences_io.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "scene_options.h"

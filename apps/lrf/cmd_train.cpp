@@ -13,7 +13,9 @@
 #include "lrf/core/paths.h"
 #include "lrf/field_kinds/field_type.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 
 namespace {
 

@@ -7,7 +7,7 @@
 #include <map>
 #include <unordered_map>
 
-#include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_database.h"
 #include "lrf/core/error.h"
 
 namespace lrf {

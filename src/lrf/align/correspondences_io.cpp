@@ -2,7 +2,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_io.h"
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/binary_reader.h"
 #include "lrf/core/error.h"

@@ -7,7 +7,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_matching.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/progress.h"

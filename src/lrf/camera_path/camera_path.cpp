@@ -1,4 +1,7 @@
 #include "lrf/camera_path/camera_path.h"
+#include "lrf/camera_path/interp_path.h"
+#include "lrf/camera_path/orbit_path.h"
+#include "lrf/camera_path/spiral_path.h"
 
 #include "lrf/core/error.h"
 

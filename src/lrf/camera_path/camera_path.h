@@ -47,16 +47,7 @@ std::vector<Camera> training_cameras(const Scene& scene);
 // The positions of the scene's SfM points.
 std::vector<Eigen::Vector3d> point_positions(const Scene& scene);
 
-std::vector<Camera> spiral_path(const std::vector<Camera>& cameras, const std::vector<Eigen::Vector3d>& points,
-                                const PathOptions& options, PathGeometry* geometry = nullptr);
-std::vector<Camera> orbit_path(const std::vector<Camera>& cameras, const std::vector<Eigen::Vector3d>& points,
-                               const PathOptions& options, PathGeometry* geometry = nullptr);
-std::vector<Camera> interp_path(const std::vector<Camera>& cameras, const PathOptions& options);
-
-// What an orbit turns around (and the viewer's first orbit target): the median of the SfM points when
-// there are at least 10, else where the cameras' axes meet, else the cameras' mean centre. `source` says which.
-Eigen::Vector3d orbit_center(const std::vector<Camera>& cameras, const std::vector<Eigen::Vector3d>& points,
-                             std::string* source);
+// Each kind's path is built in its own file: spiral_path.h, orbit_path.h, interp_path.h.
 
 // The path of `kind` for the scene's training cameras and SfM points. Throws lrf::Error for fewer than
 // one frame or a scene whose cameras do not define the path.

@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "lrf/camera_path/camera_path.h"
+#include "lrf/camera_path/interp_path.h"
 #include "lrf/core/error.h"
 
 namespace lrf::camera_path {

@@ -8,7 +8,7 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "lrf/camera_path/camera_path.h"
+#include "lrf/camera_path/orbit_path.h"
 #include "lrf/camera_path/pose_math.h"
 #include "lrf/core/error.h"
 

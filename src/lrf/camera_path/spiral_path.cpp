@@ -3,7 +3,7 @@
 // focus point at the scene's depth.
 #include <cmath>
 
-#include "lrf/camera_path/camera_path.h"
+#include "lrf/camera_path/spiral_path.h"
 #include "lrf/camera_path/pose_math.h"
 #include "lrf/core/error.h"
 

@@ -2,6 +2,7 @@
 
 #include "lrf/compare/compare_methods.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 
 namespace lrf {
 

@@ -15,6 +15,7 @@
 #include "lrf/eval/test_view_report.h"
 #include "lrf/latent/latent_field.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 #include "lrf/refine/refine.h"
 
 namespace fs = std::filesystem;

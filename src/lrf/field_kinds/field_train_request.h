@@ -9,7 +9,9 @@
 
 #include "lrf/autoencoder/latent_source.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 #include "lrf/points/initial_points.h"
 #include "lrf/presets/presets.h"
 #include "lrf/rgb/rgb_train_run.h"

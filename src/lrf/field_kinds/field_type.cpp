@@ -3,6 +3,7 @@
 #include "lrf/field_kinds/latent_field_type.h"
 #include "lrf/field_kinds/nerf_field_type.h"
 #include "lrf/field_kinds/rgb_field_type.h"
+#include "lrf/splat/run/field_kind_of_folder.h"
 
 namespace lrf {
 

@@ -9,6 +9,7 @@
 #include "lrf/core/run_info.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/splat/run/train_run.h"
 
 namespace fs = std::filesystem;

@@ -8,6 +8,7 @@
 #include "lrf/core/option_parts.h"
 #include "lrf/field_kinds/view_renders.h"
 #include "lrf/nerf/nerf_run.h"
+#include "lrf/nerf/nerf_train_run.h"
 
 namespace fs = std::filesystem;
 

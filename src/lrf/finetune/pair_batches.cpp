@@ -8,6 +8,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "lrf/align/correspondence_loss.h"
+#include "lrf/align/correspondences_database.h"
+#include "lrf/align/correspondences_io.h"
+#include "lrf/align/correspondences_matching.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/seed_stream.h"

@@ -1,3 +1,5 @@
+#include "lrf/latent/latent_train_run.h"
+
 #include <filesystem>
 #include <memory>
 

@@ -20,6 +20,9 @@ namespace fs = std::filesystem;
 
 namespace lrf::nerf {
 
+std::string nerf_field_path(const std::string& out) { return (fs::path(out) / "field.safetensors").string(); }
+std::string nerf_checkpoint_path(const std::string& out) { return (fs::path(out) / "checkpoint.safetensors").string(); }
+
 bool nerf_run_finished(const std::string& out) {
   const fs::path config = fs::path(out) / "config.json";
   if (!fs::exists(config) || !fs::exists(nerf_field_path(out))) return false;

@@ -1,5 +1,6 @@
 #pragma once
-// Latent NeRF runs on disk (lrf train --space latent-nerf, lrf compare's latent-nerf row): a NeRF fitted
+// Latent NeRF runs on disk (lrf train --space latent-nerf, lrf compare's latent-nerf row; training one:
+// nerf_train_run.h): a NeRF fitted
 // to the same normalised latents as the latent Gaussian field (the encoded training views, cached, with
 // the per-channel training range), rendered at latent resolution and decoded the same way.
 //
@@ -13,42 +14,12 @@
 #include <nlohmann/json.hpp>
 #include <torch/types.h>
 
-#include "lrf/autoencoder/latent_source.h"
 #include "lrf/latent/latent_normalization.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/nerf/nerf_field.h"
-#include "lrf/splat/run/scene_fit_options.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf::nerf {
-
-// Steps of a latent NeRF unless told otherwise: about 50 minutes at 1 thread on fern at images_8 (63×47
-// rays per view, 17 views) on the 2-core development machine, within the hour the efficiency table allows it.
-constexpr int64_t kDefaultNerfIters = 10000;
-
-// scene_options (SceneFitOptions): the image folder, downscale, test split and few-shot training views
-// (train_views: K evenly spaced training views; 0 = all), as for latent Gaussian fields: cropped to multiples
-// of 8, no test list. init_points: the points that bound the scene (SfM, triangulated, a file).
-// The field's shape and sampling, fixed when a run starts (also lrf train's request).
-struct NerfFitSettings {
-  int rays = 1024;       // rays per step
-  int samples = 32;      // coarse samples per ray, and as many fine ones
-  int log2_table = 17;   // hash table entries per level: 2^log2_table
-};
-
-struct LatentNerfOptions : SceneFitOptions, LatentSource, NerfFitSettings {
-  LatentNerfOptions() { iters = kDefaultNerfIters; }
-};
-
-struct LatentNerfResult {
-  int64_t steps = 0, parameters = 0;
-  double seconds = 0, encode_seconds = 0, final_loss = 0;
-};
-
-LatentNerfResult train_latent_nerf(const LatentNerfOptions& options);
-
-// The options the run in OUT was started with (for --resume); throws lrf::Error naming config.json.
-LatentNerfOptions recorded_nerf_options(const std::string& out);
 
 std::string nerf_field_path(const std::string& out);
 std::string nerf_checkpoint_path(const std::string& out);

@@ -1,3 +1,5 @@
+#include "lrf/nerf/nerf_train_run.h"
+
 // lrf train --space latent-nerf: the training run on disk (see nerf_run.h).
 #include <cmath>
 #include <filesystem>
@@ -68,8 +70,6 @@ void check_options(const LatentNerfOptions& o) {
 
 }  // namespace
 
-std::string nerf_field_path(const std::string& out) { return (fs::path(out) / "field.safetensors").string(); }
-std::string nerf_checkpoint_path(const std::string& out) { return (fs::path(out) / "checkpoint.safetensors").string(); }
 
 LatentNerfResult train_latent_nerf(const LatentNerfOptions& o) {
   const Stopwatch preparing;

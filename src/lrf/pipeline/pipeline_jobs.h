@@ -9,6 +9,7 @@
 #include "lrf/finetune/decoder_finetune.h"
 #include "lrf/finetune/encoder_finetune.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/pipeline/pipeline.h"
 #include "lrf/pipeline/pipeline_paths.h"
 #include "lrf/pipeline/pipeline_scenes.h"

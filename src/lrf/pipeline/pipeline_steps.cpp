@@ -14,6 +14,7 @@
 #include "lrf/finetune/pair_batches.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
+#include "lrf/latent/latent_train_run.h"
 #include "lrf/points/initial_points.h"
 #include "lrf/refine/refine_folder.h"
 #include "lrf/rgb/rgb_eval.h"

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "lrf/align/correspondences_database.h"
+#include "lrf/align/correspondences_matching.h"
 #include "lrf/core/error.h"
 #include "lrf/core/log.h"
 #include "lrf/core/progress.h"

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "lrf/align/correspondences.h"
+#include "lrf/align/correspondences_matching.h"
 #include "lrf/scene/scene.h"
 
 namespace lrf {

@@ -2,6 +2,8 @@
 // The one camera convention inside lrf: OpenCV axes (x right, y down, z forward), world-to-camera
 // rotation R and translation t (x_cam = R x_world + t), pinhole intrinsics at the resolution in use,
 // pixel centres at integer + 0.5 (the pixel (i, j) covers [j, j+1) x [i, i+1)).
+#include <string>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -34,5 +36,12 @@ struct Distortion {
   bool fisheye = false;  // OPENCV_FISHEYE / *_RADIAL_FISHEYE: k[0..3] are the fisheye k1..k4
   bool any() const;
 };
+
+// Throws lrf::Error(path, "<where>: <what> is not a rotation ...") unless R is one: orthonormal within 1e-3
+// (what a file's printed digits leave) with determinant +1. A scaled, sheared or mirrored matrix used to
+// train without a word, on cameras that see a distorted scene.
+void require_rotation(const Eigen::Matrix3d& R, const std::string& path, const std::string& where, const std::string& what);
+// Builds the world-to-camera part of a Camera from an OpenCV camera-to-world matrix.
+void set_pose_from_camera_to_world(Camera* cam, const Eigen::Matrix3d& R_c2w, const Eigen::Vector3d& center);
 
 }  // namespace lrf

@@ -3,7 +3,7 @@
 
 #include "lrf/core/error.h"
 #include "lrf/scene/colmap_model.h"
-#include "lrf/scene/raw_scene.h"
+#include "lrf/scene/colmap_reader.h"
 
 namespace fs = std::filesystem;
 

@@ -7,7 +7,8 @@
 #include "lrf/core/log.h"
 #include "lrf/core/npy.h"
 #include "lrf/scene/colmap_model.h"
-#include "lrf/scene/raw_scene.h"
+#include "lrf/scene/colmap_reader.h"
+#include "lrf/scene/llff_reader.h"
 
 namespace fs = std::filesystem;
 

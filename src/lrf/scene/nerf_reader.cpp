@@ -3,7 +3,8 @@
 #include "lrf/core/atomic_file.h"
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
-#include "lrf/scene/raw_scene.h"
+#include "lrf/scene/nerf_reader.h"
+#include "lrf/scene/transforms_json.h"
 
 namespace fs = std::filesystem;
 

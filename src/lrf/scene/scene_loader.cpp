@@ -12,6 +12,9 @@
 #include "lrf/core/error.h"
 #include "lrf/core/image_io.h"
 #include "lrf/core/log.h"
+#include "lrf/scene/colmap_reader.h"
+#include "lrf/scene/llff_reader.h"
+#include "lrf/scene/nerf_reader.h"
 #include "lrf/scene/raw_scene.h"
 #include "lrf/scene/undistort.h"
 

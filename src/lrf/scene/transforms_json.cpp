@@ -7,7 +7,7 @@
 
 #include "lrf/core/error.h"
 #include "lrf/core/finite.h"
-#include "lrf/scene/raw_scene.h"
+#include "lrf/scene/transforms_json.h"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

@@ -4,6 +4,7 @@
 #include <set>
 
 #include "lrf/camera_path/camera_path.h"
+#include "lrf/camera_path/orbit_path.h"
 #include "lrf/camera_path/pose_math.h"
 
 namespace lrf::viewer {

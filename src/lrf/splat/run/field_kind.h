@@ -27,8 +27,6 @@ FieldKind parse_field_kind(const std::string& space, const std::string& where);
 // was recorded have none and are rgb. Throws lrf::Error naming `path` on a non-object or a bad "space".
 FieldKind field_kind_of_config(const nlohmann::json& config, const std::string& path);
 
-// The kind of the field in folder `run`: nullopt when it has no config.json (not a run, or not one yet).
-// Throws lrf::Error naming the file when config.json is unreadable or names an unknown kind.
-std::optional<FieldKind> field_kind_of(const std::string& run);
+// The kind of the field in a folder: field_kind_of_folder.h.
 
 }  // namespace lrf

@@ -1,9 +1,8 @@
-// Apart from field_kind.cpp so that the config parsers link into the fuzzers without the run-record code
-// (read_json_file lives with the run records).
+#include "lrf/splat/run/field_kind_of_folder.h"
+
 #include <filesystem>
 
 #include "lrf/core/run_info.h"
-#include "lrf/splat/run/field_kind.h"
 
 namespace fs = std::filesystem;
 
