@@ -108,6 +108,18 @@ ArtefactLife decoder_life(const DecoderFinetuneOptions& d) {
                        decoder_finetune_options_json(d));
 }
 
+// A fine-tuned encoder or decoder (`what`): reused, or made by `run` with `control` (its job's options)
+// set to resume or to start afresh.
+void ensure_finetuned(ArtefactLife life, const std::string& what, RunControl* control,
+                      const std::function<void()>& run) {
+  life.make = [control, &run](bool resume) {
+    control->resume = resume;
+    control->force = !resume;
+    run();
+  };
+  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing " + what + " " + control->out);
+}
+
 // A row's finished scores, reused only if they hold every metric this version reports: rows scored before
 // FLIP and MS-SSIM existed are scored again (rendering, not retraining).
 std::optional<nlohmann::json> reusable_scores(const std::string& metrics) {
@@ -212,16 +224,12 @@ bool encoder_finished(const EncoderFinetuneOptions& e) { return finished_as_want
 
 void ensure_encoder(const EncoderFinetuneOptions& stage1) {
   EncoderFinetuneOptions e = stage1;
-  ArtefactLife life = encoder_life(e);
-  life.make = [&e](bool resume) {
-    e.resume = resume;
-    e.force = !resume;
+  ensure_finetuned(encoder_life(e), "Stage I encoder", &e, [&e] {
     log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : "") + ": " + std::to_string(e.steps) +
              " steps of " + std::to_string(e.batch.pairs) + " view pairs in " + std::to_string(e.batch.crop) +
              "-pixel crops, on " + std::to_string(e.scenes.size()) + " training scene(s)");
     finetune_encoder(e);
-  };
-  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage I encoder " + e.out);
+  });
 }
 
 DecoderFinetuneOptions decoder_options(const DecoderFinetuneOptions& job, const std::vector<std::string>& fields,
@@ -237,15 +245,11 @@ bool decoder_finished(const DecoderFinetuneOptions& d) { return finished_as_want
 
 void ensure_decoder(const DecoderFinetuneOptions& stage3) {
   DecoderFinetuneOptions d = stage3;
-  ArtefactLife life = decoder_life(d);
-  life.make = [&d](bool resume) {
-    d.resume = resume;
-    d.force = !resume;
+  ensure_finetuned(decoder_life(d), "Stage III decoder", &d, [&d] {
     log_info("== Stage III " + d.out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
              " steps on " + std::to_string(d.fields.size()) + " field(s)");
     finetune_decoder(d);
-  };
-  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing Stage III decoder " + d.out);
+  });
 }
 
 nlohmann::json ensure_latent_eval(const FieldScoring& scoring, const std::string& field, const std::string& decoder,
