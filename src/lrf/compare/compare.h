@@ -10,12 +10,12 @@
 
 #include <nlohmann/json.hpp>
 
-#include "lrf/detail/detail_eval.h"
 #include "lrf/autoencoder/latent_source.h"
+#include "lrf/detail/detail_eval.h"
 #include "lrf/points/initial_points.h"
-#include "lrf/splat/run/scene_fit_options.h"
 #include "lrf/refine/refine.h"
 #include "lrf/scene/scene.h"
+#include "lrf/splat/run/scene_fit_options.h"
 
 namespace lrf {
 
@@ -27,7 +27,7 @@ struct CompareOptions : SceneFitOptions, LatentSource {
   // How every row is scored: the latent rows' decoder (also what latent-refined is refined through), LPIPS's
   // weights, and latent-refined+detail's pass (the detail pass on latent-refined's field).
   detail::DetailEvalOptions scoring;
-  int latent_sh_degree = 1;  // kDefaultLatentShDegree (latent/latent_run.h)
+  int latent_sh_degree = 1;  // kDefaultLatentShDegree (latent/latent_train_run.h)
   int64_t latent_iters = 0;  // 0 = iters
   int64_t nerf_iters = 0;  // latent-nerf steps (0 = nerf::kDefaultNerfIters; --steps counts Gaussian steps)
   std::vector<std::string> methods = {"rgb/8", "rgb/8-mip", "latent", "latent-refined"};
