@@ -108,10 +108,10 @@ ArtefactLife decoder_life(const DecoderFinetuneOptions& d) {
                        decoder_finetune_options_json(d));
 }
 
-// A fine-tuned encoder or decoder (`what`): reused, or made by `run` with `control` (its job's options)
-// set to resume or to start afresh.
-void ensure_finetuned(ArtefactLife life, const std::string& what, RunControl* control,
-                      const std::function<void()>& run) {
+// A job's artefact (`what`: a field, the Stage I encoder, a Stage III decoder): reused, or made by `run` with
+// `control` (its job's options) set to resume or to start afresh.
+void ensure_job_artefact(ArtefactLife life, const std::string& what, RunControl* control,
+                         const std::function<void()>& run) {
   life.make = [control, &run](bool resume) {
     control->resume = resume;
     control->force = !resume;
@@ -152,25 +152,22 @@ nlohmann::json scores_of_field(const std::string& field, const std::string& dir,
 
 void ensure_latent_field(const LatentTrainOptions& job, const std::string& scene, const SceneResolution& resolution,
                          int train_views, const std::string& dir, const std::string& encoder) {
-  ArtefactLife life = field_life(
+  LatentTrainOptions l = job;
+  l.scene = scene;
+  l.out = dir;
+  l.scene_options.images_dir = resolution.images;
+  l.scene_options.downscale = resolution.downscale;
+  l.scene_options.train_views = train_views;
+  l.encoder = encoder;
+  const ArtefactLife life = field_life(
       dir, wanted_field_settings(scene, resolution, train_views, job, autoencoder_identity(job.autoencoder, encoder)));
-  life.make = [&](bool resume) {
-    LatentTrainOptions l = job;
-    l.scene = scene;
-    l.out = dir;
-    l.scene_options.images_dir = resolution.images;
-    l.scene_options.downscale = resolution.downscale;
-    l.scene_options.train_views = train_views;
-    l.encoder = encoder;
-    l.resume = resume;
-    l.force = !resume;
+  ensure_job_artefact(life, "field", &l, [&] {
     log_info("== latent field " + dir + (l.resume ? " (resuming)" : "") + ": " + std::to_string(l.iters) +
              " steps on the " + (encoder.empty() ? "stock" : "Stage I") + " encoder's latents of " + scene +
              " (" + (resolution.images.empty() ? "images" : resolution.images) + " downscaled " +
              std::to_string(resolution.downscale) + "x)");
     train_latent_field(l);
-  };
-  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing field " + dir);
+  });
 }
 
 // An RGB baseline: at latent resolution (factor 8) or full resolution (1), with or without Mip filters.
@@ -178,24 +175,22 @@ void ensure_rgb_field(const RgbTrainOptions& job, const std::string& scene, cons
                       const std::string& dir, const RgbBaseline& baseline) {
   const int factor = baseline.factor;
   const bool mip = baseline.mip;
-  ArtefactLife life = field_life(dir, wanted_field_settings(scene, resolution, job.scene_options.train_views, job, ""));
-  life.make = [&](bool resume) {
-    RgbTrainOptions b = job;
-    b.scene = scene;
-    b.scene_options.images_dir = resolution.images;
-    b.scene_options.downscale = resolution.downscale;
-    b.out = dir;
-    b.factor = factor;
-    b.mip = mip;
-    b.resume = resume;
-    b.force = !resume;
-    b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
+  RgbTrainOptions b = job;
+  b.scene = scene;
+  b.scene_options.images_dir = resolution.images;
+  b.scene_options.downscale = resolution.downscale;
+  b.out = dir;
+  b.factor = factor;
+  b.mip = mip;
+  b.task = std::string("train-rgb") + (factor == 1 ? "" : "/" + std::to_string(factor)) + (mip ? "-mip" : "");
+  const ArtefactLife life =
+      field_life(dir, wanted_field_settings(scene, resolution, job.scene_options.train_views, job, ""));
+  ensure_job_artefact(life, "field", &b, [&] {
     log_info("== RGB field " + dir + (b.resume ? " (resuming)" : "") + ": " + std::to_string(b.iters) + " steps on " +
              scene + "'s views" + (factor > 1 ? " reduced " + std::to_string(factor) + "x" : "") +
              (mip ? ", with Mip-Splatting's filters" : ""));
     train_rgb_field(b);
-  };
-  if (ensure_artefact(life) == ArtefactFate::reused) log_info("reusing field " + dir);
+  });
 }
 
 // The RGB rows are scored as lrf eval scores an RGB run.
@@ -224,7 +219,7 @@ bool encoder_finished(const EncoderFinetuneOptions& e) { return finished_as_want
 
 void ensure_encoder(const EncoderFinetuneOptions& stage1) {
   EncoderFinetuneOptions e = stage1;
-  ensure_finetuned(encoder_life(e), "Stage I encoder", &e, [&e] {
+  ensure_job_artefact(encoder_life(e), "Stage I encoder", &e, [&e] {
     log_info(std::string("== Stage I") + (e.resume ? " (resuming)" : "") + ": " + std::to_string(e.steps) +
              " steps of " + std::to_string(e.batch.pairs) + " view pairs in " + std::to_string(e.batch.crop) +
              "-pixel crops, on " + std::to_string(e.scenes.size()) + " training scene(s)");
@@ -245,7 +240,7 @@ bool decoder_finished(const DecoderFinetuneOptions& d) { return finished_as_want
 
 void ensure_decoder(const DecoderFinetuneOptions& stage3) {
   DecoderFinetuneOptions d = stage3;
-  ensure_finetuned(decoder_life(d), "Stage III decoder", &d, [&d] {
+  ensure_job_artefact(decoder_life(d), "Stage III decoder", &d, [&d] {
     log_info("== Stage III " + d.out + (d.resume ? " (resuming)" : "") + ": " + std::to_string(d.steps) +
              " steps on " + std::to_string(d.fields.size()) + " field(s)");
     finetune_decoder(d);
