@@ -12,7 +12,8 @@ namespace lrf::winograd_f32 {
 // streams every transformed kernel once (36 x 64 x 64 floats for F(4x4) of 64 channels, beyond L2), so
 // longer units stream them less often; a 64->64 convolution at 504x376 on the 2-core AVX2 EPYC took
 // 40.5-41.2 ms with 12 tiles, 39.2 with 24, 36.0 with 36, 41.8 with 48 and 39.5 with 72 (bench_autoencoder
-// conv, one run each).
+// conv, one run each). With the positions' blocks a cache line off a power of two apart (position_stride in
+// the kernels), 24, 32, 48 and 64 tiles all took 70-75 ms on one thread, so the count stays.
 constexpr int kTilesPerUnit = 32;
 
 struct Geometry {
