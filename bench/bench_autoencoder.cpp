@@ -672,6 +672,26 @@ void bench_stage3(int reps) {
     loss.backward();
     adam.step();
   });
+  // Stage III's step as it runs (training, held-out and round-trip crops, each term its own decode) against
+  // the same three terms from one decode of the groups stacked into one batch.
+  auto [z_round, x_round] = crops(0);
+  ae->set_precision(Precision::fp32);
+  alternate("stage3x3", reps, 0, "apart", "stacked", [&](bool stacked) {
+    adam.zero_grad();
+    const std::vector<std::pair<at::Tensor, at::Tensor>> groups{{z_train, x_train}, {z_novel, x_novel}, {z_round, x_round}};
+    at::Tensor loss = torch::zeros({});
+    if (stacked) {
+      std::vector<at::Tensor> zs;
+      for (const auto& g : groups) zs.push_back(g.first);
+      const at::Tensor decoded = ae->decode(at::cat(zs));
+      for (size_t i = 0; i < groups.size(); ++i)
+        loss = loss + (decoded.narrow(0, 2 * static_cast<int64_t>(i), 2) - groups[i].second).abs().mean();
+    } else {
+      for (const auto& g : groups) loss = loss + (ae->decode(g.first) - g.second).abs().mean();
+    }
+    loss.backward();
+    adam.step();
+  });
 }
 
 void bench_quality(lrf::Autoencoder& ae) {
