@@ -14,6 +14,7 @@
 #include "lrf/latent/latent_run.h"
 #include "lrf/latent/latent_train_run.h"
 #include "lrf/finetune/decoder_finetune.h"
+#include "lrf/finetune/stage3_terms.h"
 #include "test_helpers.h"
 
 namespace fs = std::filesystem;
@@ -149,6 +150,50 @@ TEST_F(DecoderFinetune, RoundTripTermKeepsTheDecoderDecodingEncodedLatents) {
   lrf::DecoderFinetuneOptions bad = options(*dir_ / "rt-bad.safetensors");
   bad.weight_roundtrip = -1;
   EXPECT_NE(error_of([&] { lrf::finetune_decoder(bad); }).find("--weight-roundtrip"), std::string::npos);
+}
+
+// A step's terms decoded as one stacked batch give each term the loss, and the decoder the gradient, that
+// decoding each term apart gives, whole or as one rank's share of the batch. Tolerances: the two ways differ
+// only in the order float32 sums are taken (a mean over 2 x 3 x 64 x 64 pixels, weight gradients summed over
+// the batch), about 1e-6 relative; a term scored against another term's crops is off by tens of percent.
+TEST(Stage3Terms, OneStackedPassEqualsEachTermDecodedApart) {
+  lrf::test::ScopedPrecision fp32{lrf::Precision::fp32};
+  auto ae = lrf::load_autoencoder(taef2());
+  ae->set_decoder_trainable(true);
+  const std::vector<at::Tensor> params = ae->decoder_parameters();
+  torch::manual_seed(3);
+  std::vector<lrf::Stage3Term> terms;
+  for (const char* name : {"l1_train", "l1_novel", "l1_roundtrip"})
+    terms.push_back({name, 0.5, {torch::randn({2, 32, 8, 8}), torch::rand({2, 3, 64, 64})}});
+  for (int world : {1, 2}) {
+    const lrf::BatchShare share = lrf::batch_share(2, world - 1, world);
+    auto gradients = [&](const at::Tensor& loss) {
+      for (const at::Tensor& p : params) p.mutable_grad() = at::Tensor();
+      loss.backward();
+      std::vector<at::Tensor> g;
+      for (const at::Tensor& p : params) g.push_back(p.grad().clone());
+      return g;
+    };
+    const std::vector<at::Tensor> stacked = lrf::stage3_term_losses(*ae, terms, share, 0);
+    ASSERT_EQ(stacked.size(), terms.size());
+    at::Tensor stacked_loss = torch::zeros({});
+    for (size_t i = 0; i < terms.size(); ++i) stacked_loss = stacked_loss + terms[i].weight * stacked[i];
+    const std::vector<at::Tensor> g_stacked = gradients(stacked_loss);
+    at::Tensor apart_loss = torch::zeros({});
+    for (size_t i = 0; i < terms.size(); ++i) {
+      const at::Tensor z = terms[i].crops.first.narrow(0, share.first, share.count);
+      const at::Tensor x = terms[i].crops.second.narrow(0, share.first, share.count);
+      const at::Tensor l = (ae->decode_unclamped(z) - x).abs().mean() * lrf::share_weight(share);
+      EXPECT_NEAR(stacked[i].item<double>(), l.item<double>(), 1e-5 * l.item<double>()) << terms[i].metric;
+      apart_loss = apart_loss + terms[i].weight * l;
+    }
+    const std::vector<at::Tensor> g_apart = gradients(apart_loss);
+    for (size_t k = 0; k < params.size(); ++k) {
+      const double scale = g_apart[k].abs().max().item<double>();
+      EXPECT_LE((g_stacked[k] - g_apart[k]).abs().max().item<double>(), 1e-4 * scale + 1e-12)
+          << "parameter " << k << ", world " << world;
+    }
+  }
 }
 
 // Stage III at each precision (bf16: bf16 compute on float32 master weights and Adam state).

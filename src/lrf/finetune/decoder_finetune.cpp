@@ -19,6 +19,7 @@
 #include "lrf/core/training_steps.h"
 #include "lrf/finetune/finetune_loop.h"
 #include "lrf/finetune/finetune_output.h"
+#include "lrf/finetune/stage3_terms.h"
 #include "lrf/latent/latent_cache.h"
 #include "lrf/latent/latent_run.h"
 #include "lrf/optim/param_adam.h"
@@ -120,37 +121,6 @@ nlohmann::json stage3_inputs(const DecoderFinetuneOptions& o, const std::vector<
           {"latent_checksum", std::to_string(static_cast<float>(checksum))}};
 }
 
-// One loss term of a Stage III step: its crops (latents and images) and its weight.
-struct Term {
-  std::string metric;
-  double weight;
-  std::pair<at::Tensor, at::Tensor> crops;
-};
-
-// Each term's loss (mean L1, or its mix with D-SSIM) over the crops this rank takes, as this rank's part of
-// it. The terms' crops go through the decoder as one batch: at Stage III's small crops a decoder pass is
-// dominated by its per-layer overhead, and one pass of 3 x 2 crops trained 1.24x faster than three of 2 on
-// one thread of the AVX2 EPYC (bench_autoencoder stage3, the stage3x3 rows).
-std::vector<at::Tensor> term_losses(Autoencoder& ae, const std::vector<Term>& terms, const BatchShare& share,
-                                    double lambda_ssim) {
-  std::vector<at::Tensor> z, x;
-  for (const Term& t : terms) {
-    z.push_back(share.count == share.total ? t.crops.first : t.crops.first.narrow(0, share.first, share.count));
-    x.push_back(share.count == share.total ? t.crops.second : t.crops.second.narrow(0, share.first, share.count));
-  }
-  const at::Tensor decoded = ae.decode_unclamped(z.size() == 1 ? z[0] : at::cat(z));
-  const double part = share_weight(share);
-  std::vector<at::Tensor> losses;
-  int64_t at = 0;
-  for (const at::Tensor& target : x) {
-    const at::Tensor mine = decoded.narrow(0, at, target.size(0));
-    at += target.size(0);
-    at::Tensor l = lambda_ssim == 0 ? (mine - target).abs().mean() : splat::photometric_loss(mine, target, lambda_ssim);
-    losses.push_back(part == 1.0 ? l : l * part);
-  }
-  return losses;
-}
-
 }  // namespace
 
 DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
@@ -231,7 +201,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     std::mt19937_64 rng(stream_seed(o.seed, SeedStream::stage3_crops, static_cast<uint64_t>(step)));
     // Crops drawn in the order training, held-out, round trip, so that a run without the round-trip term
     // draws what it always drew.
-    std::vector<Term> terms;
+    std::vector<Stage3Term> terms;
     if (o.weight_train > 0) terms.push_back({"l1_train", o.weight_train, sample_crops(train, o.batch, crop, rng)});
     if (o.weight_novel > 0) terms.push_back({"l1_novel", o.weight_novel, sample_crops(novel, o.batch, crop, rng)});
     if (o.weight_roundtrip > 0) {
@@ -242,7 +212,7 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
       }
       terms.push_back({"l1_roundtrip", o.weight_roundtrip, crops});
     }
-    const std::vector<at::Tensor> losses = term_losses(*ae, terms, share, o.lambda_ssim);
+    const std::vector<at::Tensor> losses = stage3_term_losses(*ae, terms, share, o.lambda_ssim);
     // The paper's two terms are always reported (0 when weighted out), the round trip only when it is used.
     FinetuneStepLoss step_loss{torch::zeros({}), {{"l1_train", 0.0}, {"l1_novel", 0.0}}};
     for (size_t i = 0; i < terms.size(); ++i) {
