@@ -1,5 +1,4 @@
 #include "lrf/finetune/decoder_finetune.h"
-#include "lrf/splat/train/loss.h"
 
 #include <chrono>
 #include <cmath>
