@@ -32,7 +32,8 @@
 //   stage1    one Stage I step: 2 pairs of 192x192 crops of llff-fern, L_VAE + L_corres + L_reg,
 //             backward into the encoder, Adam on float32 master weights
 //   stage3    one Stage III step: 2 + 2 crops of 128x128 (latents of fern's views), L1 through the
-//             decoder, backward into the decoder, Adam
+//             decoder, backward into the decoder, Adam; then (stage3x3, fp32) the step's three terms of
+//             2 crops each decoded apart against stacked into one pass, as lrf's Stage III runs them
 //   quality   round-trip PSNR on fern's test views 0, 8, 16 per precision, and their difference
 //   kl        the full-size KL-f8 VAE (random weights) encode and decode at 504x376
 //   paths     every instruction-set path this CPU has, side by side (bf16 where native, float32 Winograd
