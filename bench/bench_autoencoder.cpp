@@ -76,6 +76,7 @@
 #include "lrf/optim/param_adam.h"
 #include "lrf/finetune/encoder_finetune.h"
 #include "lrf/finetune/pair_batches.h"
+#include "lrf/finetune/stage3_terms.h"
 #include "lrf/scene/scene.h"
 #include "taef2_layers.h"
 
@@ -677,18 +678,17 @@ void bench_stage3(int reps) {
   // the same three terms from one decode of the groups stacked into one batch.
   auto [z_round, x_round] = crops(0);
   ae->set_precision(Precision::fp32);
+  const std::vector<lrf::Stage3Term> terms{{"l1_train", 1, {z_train, x_train}},
+                                           {"l1_novel", 1, {z_novel, x_novel}},
+                                           {"l1_roundtrip", 1, {z_round, x_round}}};
+  const lrf::BatchShare whole = lrf::batch_share(2, 0, 1);
   alternate("stage3x3", reps, 0, "apart", "stacked", [&](bool stacked) {
     adam.zero_grad();
-    const std::vector<std::pair<at::Tensor, at::Tensor>> groups{{z_train, x_train}, {z_novel, x_novel}, {z_round, x_round}};
     at::Tensor loss = torch::zeros({});
     if (stacked) {
-      std::vector<at::Tensor> zs;
-      for (const auto& g : groups) zs.push_back(g.first);
-      const at::Tensor decoded = ae->decode(at::cat(zs));
-      for (size_t i = 0; i < groups.size(); ++i)
-        loss = loss + (decoded.narrow(0, 2 * static_cast<int64_t>(i), 2) - groups[i].second).abs().mean();
+      for (const at::Tensor& l : lrf::stage3_term_losses(*ae, terms, whole, 0)) loss = loss + l;
     } else {
-      for (const auto& g : groups) loss = loss + (ae->decode(g.first) - g.second).abs().mean();
+      for (const auto& t : terms) loss = loss + (ae->decode_unclamped(t.crops.first) - t.crops.second).abs().mean();
     }
     loss.backward();
     adam.step();

@@ -214,12 +214,11 @@ DecoderFinetuneResult finetune_decoder(const DecoderFinetuneOptions& o) {
     const std::vector<at::Tensor> losses = stage3_term_losses(*ae, terms, share, o.lambda_ssim);
     // The paper's two terms are always reported (0 when weighted out), the round trip only when it is used.
     FinetuneStepLoss step_loss{torch::zeros({}), {{"l1_train", 0.0}, {"l1_novel", 0.0}}};
+    if (o.weight_roundtrip > 0) step_loss.metrics.push_back({"l1_roundtrip", 0.0});
     for (size_t i = 0; i < terms.size(); ++i) {
       step_loss.loss = step_loss.loss + terms[i].weight * losses[i];
-      const double value = losses[i].item<double>();
-      if (terms[i].metric == "l1_roundtrip") step_loss.metrics.push_back({terms[i].metric, value});
-      for (auto& [name, metric] : step_loss.metrics)
-        if (name == terms[i].metric) metric = value;
+      for (auto& [name, value] : step_loss.metrics)
+        if (name == terms[i].metric) value = losses[i].item<double>();
     }
     return step_loss;
   };
