@@ -6,7 +6,9 @@
 // from ../shared/models when present, else random weights of the same architecture):
 //   conv      one 64->64 3x3 convolution at 504x376, channels-last: what oneDNN reaches per precision
 //             (the ceiling for the networks, which are almost only such convolutions), and in float32
-//             oneDNN's direct convolution against the float32 Winograd kernel, alternated
+//             oneDNN's direct convolution against the float32 Winograd kernel, alternated, and (where
+//             oneDNN builds it: AVX-512) oneDNN's own float32 Winograd against lrf's, in oneDNN's own
+//             layouts and with the reorders from and to channels-last that lrf's layers would need
 //   bounds    the least time of a decode, an encode, a Stage I and a Stage III step if every convolution
 //             ran at the rate of the fastest bf16 64->64 convolution measured here (FLOPs / that rate):
 //             inference's (Winograd where the CPU has AVX512_BF16) for decode and encode and for the
@@ -56,6 +58,7 @@
 #include <string>
 #include <vector>
 
+#include <oneapi/dnnl/dnnl.hpp>
 #include <torch/torch.h>
 
 #include "lrf/autoencoder/autoencoder.h"
@@ -184,6 +187,64 @@ at::Tensor fern_image(int index) {
   return lrf::image_to_batch(scene.load_image(index));
 }
 
+// oneDNN's float32 Winograd convolution (algorithm::convolution_winograd), for comparison with lrf's: the
+// input, output and weights in the layouts oneDNN picks for it (reordered once, outside the timing: its best
+// case, as a network kept in those layouts would see it). nullptr where oneDNN refuses the algorithm.
+class OnednnWinograd {
+ public:
+  static std::unique_ptr<OnednnWinograd> create(const at::Tensor& x, const at::Tensor& w) {
+    using dt = dnnl::memory::data_type;
+    using tag = dnnl::memory::format_tag;
+    auto self = std::make_unique<OnednnWinograd>();
+    const dnnl::memory::dim n = x.size(0), c = x.size(1), h = x.size(2), wd = x.size(3), o = w.size(0);
+    const dnnl::memory::desc src_any({n, c, h, wd}, dt::f32, tag::any), dst_any({n, o, h, wd}, dt::f32, tag::any),
+        weights_any({o, c, 3, 3}, dt::f32, tag::any);
+    try {
+      using conv = dnnl::convolution_forward;
+      const conv::desc desc(dnnl::prop_kind::forward_inference, dnnl::algorithm::convolution_winograd, src_any,
+                            weights_any, dst_any, {1, 1}, {1, 1}, {1, 1});
+      const conv::primitive_desc pd(desc, self->engine_);
+      std::printf("conv-fp32  oneDNN's Winograd: %s\n", pd.impl_info_str());
+      self->conv_ = conv(pd);
+      self->src_ = dnnl::memory(pd.src_desc(), self->engine_);
+      self->dst_ = dnnl::memory(pd.dst_desc(), self->engine_);
+      self->weights_ = dnnl::memory(pd.weights_desc(), self->engine_);
+      const at::Tensor x_plain = x.contiguous(), w_plain = w.contiguous();
+      dnnl::memory x_mem({{n, c, h, wd}, dt::f32, tag::nchw}, self->engine_, x_plain.data_ptr());
+      dnnl::memory w_mem({{o, c, 3, 3}, dt::f32, tag::oihw}, self->engine_, w_plain.data_ptr());
+      dnnl::reorder(x_mem, self->src_).execute(self->stream_, x_mem, self->src_);
+      dnnl::reorder(w_mem, self->weights_).execute(self->stream_, w_mem, self->weights_);
+      self->stream_.wait();
+    } catch (const dnnl::error& e) {
+      std::printf("conv-fp32  oneDNN's Winograd: not built on this CPU (%s)\n\n", e.what());
+      return nullptr;
+    }
+    return self;
+  }
+  void run() {
+    conv_.execute(stream_, {{DNNL_ARG_SRC, src_}, {DNNL_ARG_WEIGHTS, weights_}, {DNNL_ARG_DST, dst_}});
+    stream_.wait();
+  }
+  // As lrf's layers would call it: a channels-last input reordered into oneDNN's layout, convolved, and
+  // the output reordered back to channels-last.
+  void run_channels_last(const at::Tensor& x, at::Tensor& y) {
+    using dt = dnnl::memory::data_type;
+    using tag = dnnl::memory::format_tag;
+    dnnl::memory x_mem({{x.size(0), x.size(1), x.size(2), x.size(3)}, dt::f32, tag::nhwc}, engine_, x.data_ptr());
+    dnnl::memory y_mem({{y.size(0), y.size(1), y.size(2), y.size(3)}, dt::f32, tag::nhwc}, engine_, y.data_ptr());
+    dnnl::reorder(x_mem, src_).execute(stream_, x_mem, src_);
+    conv_.execute(stream_, {{DNNL_ARG_SRC, src_}, {DNNL_ARG_WEIGHTS, weights_}, {DNNL_ARG_DST, dst_}});
+    dnnl::reorder(dst_, y_mem).execute(stream_, dst_, y_mem);
+    stream_.wait();
+  }
+
+ private:
+  dnnl::engine engine_{dnnl::engine::kind::cpu, 0};
+  dnnl::stream stream_{engine_};
+  dnnl::convolution_forward conv_;
+  dnnl::memory src_, dst_, weights_;
+};
+
 void bench_conv(int reps) {
   torch::NoGradGuard no_grad;
   torch::manual_seed(0);
@@ -201,6 +262,24 @@ void bench_conv(int reps) {
     alternate("conv-fp32", reps, flops, "direct", "winograd", [&](bool by_winograd) {
       at::Tensor y = by_winograd ? winograd.forward(x, false) : at::conv2d(x, w, {}, 1, 1);
     });
+    // oneDNN's own float32 Winograd (an AVX-512 kernel in oneDNN 2.x) against lrf's, where oneDNN builds it.
+    if (std::unique_ptr<OnednnWinograd> onednn = OnednnWinograd::create(x, w)) {
+      alternate("conv-fp32", reps, flops, "onednn-w", "lrf-w", [&](bool by_lrf) {
+        if (by_lrf) {
+          at::Tensor y = winograd.forward(x, false);
+        } else {
+          onednn->run();
+        }
+      });
+      at::Tensor y = at::empty_like(x);
+      alternate("conv-fp32", reps, flops, "onednn-w+r", "lrf-w", [&](bool by_lrf) {
+        if (by_lrf) {
+          at::Tensor z = winograd.forward(x, false);
+        } else {
+          onednn->run_channels_last(x, y);
+        }
+      });
+    }
   }
 }
 
