@@ -1,5 +1,5 @@
 // The float32 Winograd convolution (winograd_f32.h) on every vector width this CPU has (AVX2 and, where
-// present, AVX-512F, chosen with $LRF_CPU_ISA) and both tile sizes: values against a float64 loop, and
+// present, AVX-512F, chosen with $LRF_CPU_ISA) and every tile size: values against a float64 loop, and
 // the input, weight and bias gradients against float64 autograd, whose own gradients are checked against
 // central differences of the loop.
 #include <cstdio>
@@ -41,8 +41,10 @@ std::vector<std::string> levels() {
 // float32 Winograd against float64. The direct float32 convolution leaves ~1e-7 of the values (rms);
 // the transforms multiply inputs by up to 5 and outputs by up to 8 (F(4x4)) and the output transform
 // adds 36 products with cancellation: F(4x4) measures 0.7-1.0e-6 rms and 2-3e-6 of the largest value on
-// these cases, F(2x2) 1.3-2.1e-7 (every gradient included). 1e-5 rms and 3e-5 of the largest value leave
-// 10x; one wrong coefficient, a misplaced tile or a lost border gives errors of the order of the values.
+// these cases, F(2x2) 1.3-2.1e-7 (every gradient included), F(6x6) (coefficients up to 32) 1.4-2.4e-6 rms
+// and 2.6-6.7e-6 of the largest value. 1e-5 rms and 3e-5 of the largest value leave 10x for F(4x4) and
+// 4x for F(6x6); one wrong coefficient, a misplaced tile or a lost border gives errors of the order of the
+// values.
 constexpr double kRms = 1e-5, kMax = 3e-5;
 
 struct Case {
@@ -72,7 +74,7 @@ TEST(WinogradF32, ForwardMatchesAFloat64LoopOnEveryWidthAndTile) {
   if (isas.empty()) GTEST_SKIP() << "this CPU has no AVX2 with FMA";
   for (const auto& isa : isas) {
     lrf::test::ScopedEnv cap("LRF_CPU_ISA", isa.c_str());
-    for (int tile : {2, 4}) {
+    for (int tile : {2, 4, 6}) {
       const std::string what = isa + ", tile " + std::to_string(tile);
       // 9x13: partial tiles on both sides, and a second image.
       const Case c = make_case(3, {2, 16, 9, 13}, 32);
@@ -107,7 +109,7 @@ TEST(WinogradF32, GradientsMatchFloat64OnEveryWidthAndTile) {
   at::conv2d(xd, wd, bd, 1, 1).backward(up.to(at::kDouble));
   for (const auto& isa : isas) {
     lrf::test::ScopedEnv cap("LRF_CPU_ISA", isa.c_str());
-    for (const char* tile : {"2", "4"}) {
+    for (const char* tile : {"2", "4", "6"}) {
       lrf::test::ScopedEnv tiles("LRF_WINOGRAD_F32_TILE", tile);
       const std::string what = isa + ", tile " + tile;
       const at::Tensor x = c.x.clone().requires_grad_(true);

@@ -83,13 +83,16 @@ bool switched_off(const char* name) {
 }
 
 // The tile side $NAME asks for, `fallback` when unset; anything but `a` or `b` is refused.
-int tile_from_env(const char* name, int fallback, int a, int b) {
+int tile_from_env(const char* name, int fallback, std::initializer_list<int> allowed) {
   const char* v = std::getenv(name);
   if (!v || !*v) return fallback;
   const std::string tile = v;
-  if (tile == std::to_string(a)) return a;
-  if (tile == std::to_string(b)) return b;
-  fail(std::string(name) + " must be " + std::to_string(a) + " or " + std::to_string(b) + ", got '" + tile + "'");
+  std::string choices;
+  for (int a : allowed) {
+    if (tile == std::to_string(a)) return a;
+    choices += (choices.empty() ? "" : " or ") + std::to_string(a);
+  }
+  fail(std::string(name) + " must be " + choices + ", got '" + tile + "'");
 }
 
 }  // namespace
@@ -98,7 +101,7 @@ bool fused_conv_enabled() { return !switched_off("LRF_FUSED_CONV"); }
 
 bool winograd_enabled() { return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && cpu_has_avx512_bf16(); }
 
-int winograd_tile() { return tile_from_env("LRF_WINOGRAD_TILE", 3, 2, 3); }
+int winograd_tile() { return tile_from_env("LRF_WINOGRAD_TILE", 3, {2, 3}); }
 
 SimdLevel cpu_simd_level() {
 #if defined(__x86_64__) || defined(__i386__)
@@ -154,7 +157,7 @@ void apply_isa_cap_to_onednn() {
 
 bool cpu_has_avx2() { return simd_level() >= SimdLevel::avx2; }
 
-int winograd_f32_tile() { return tile_from_env("LRF_WINOGRAD_F32_TILE", 4, 2, 4); }
+int winograd_f32_tile() { return tile_from_env("LRF_WINOGRAD_F32_TILE", 4, {2, 4, 6}); }
 
 bool winograd_f32_enabled() {
   return fused_conv_enabled() && !switched_off("LRF_WINOGRAD") && simd_level() >= SimdLevel::avx2;

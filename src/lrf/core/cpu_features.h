@@ -56,7 +56,7 @@ bool cpu_has_avx2();
 bool winograd_f32_enabled();
 
 // The output tile side of the float32 Winograd kernels: 4, F(4x4, 3x3), unless $LRF_WINOGRAD_F32_TILE is 2,
-// F(2x2, 3x3) (kept to compare against). Read on every call.
+// F(2x2, 3x3), or 6, F(6x6, 3x3) (kept to compare against: docs/speed.md). Read on every call.
 int winograd_f32_tile();
 
 }  // namespace lrf

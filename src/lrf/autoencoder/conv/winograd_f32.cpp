@@ -39,7 +39,16 @@ constexpr double kG2[4][3] = {{1, 0, 0}, {0.5, 0.5, 0.5}, {0.5, -0.5, 0.5}, {0, 
 constexpr double kG4[6][3] = {{1.0 / 4, 0, 0},           {-1.0 / 6, -1.0 / 6, -1.0 / 6}, {-1.0 / 6, 1.0 / 6, -1.0 / 6},
                               {1.0 / 24, 1.0 / 12, 1.0 / 6}, {1.0 / 24, -1.0 / 12, 1.0 / 6}, {0, 0, 1}};
 
-double g_entry(int tile, int r, int c) { return tile == 4 ? kG4[r][c] : kG2[r][c]; }
+constexpr double kG6[8][3] = {{1, 0, 0},
+                              {-2.0 / 9, -2.0 / 9, -2.0 / 9},
+                              {-2.0 / 9, 2.0 / 9, -2.0 / 9},
+                              {1.0 / 90, 1.0 / 45, 2.0 / 45},
+                              {1.0 / 90, -1.0 / 45, 2.0 / 45},
+                              {32.0 / 45, 16.0 / 45, 8.0 / 45},
+                              {32.0 / 45, -16.0 / 45, 8.0 / 45},
+                              {0, 0, 1}};
+
+double g_entry(int tile, int r, int c) { return tile == 6 ? kG6[r][c] : tile == 4 ? kG4[r][c] : kG2[r][c]; }
 
 std::string shape_of(const at::Tensor& t) { return c10::str(t.sizes()); }
 
@@ -52,7 +61,9 @@ Geometry geometry(int64_t n, int64_t h, int64_t w, int64_t inputs, int64_t outpu
 }
 
 void check_tile(int tile) {
-  if (tile != 2 && tile != 4) fail("WinogradF32Conv3x3: the tile side must be 2 or 4, got " + std::to_string(tile));
+  if (tile != 2 && tile != 4 && tile != 6) {
+    fail("WinogradF32Conv3x3: the tile side must be 2, 4 or 6, got " + std::to_string(tile));
+  }
 }
 
 }  // namespace

@@ -22,7 +22,7 @@ class WinogradF32Conv3x3 {
   // Whether this CPU runs the kernels now (winograd_f32_enabled()) and takes these channel counts:
   // multiples of the vector's lanes (8 with AVX2, 16 with AVX-512F) both ways.
   static bool runs(int64_t outputs, int64_t inputs);
-  // The output tile side: 4 unless $LRF_WINOGRAD_F32_TILE=2.
+  // The output tile side: 4 unless $LRF_WINOGRAD_F32_TILE is 2 or 6.
   static int chosen_tile();
 
   // weight [O, I, 3, 3] and bias [O] or undefined (any dtype and layout; copied and transformed in

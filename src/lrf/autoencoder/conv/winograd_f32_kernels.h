@@ -13,13 +13,17 @@ namespace lrf::winograd_f32 {
 // longer units stream them less often; a 64->64 convolution at 504x376 on the 2-core AVX2 EPYC took
 // 40.5-41.2 ms with 12 tiles, 39.2 with 24, 36.0 with 36, 41.8 with 48 and 39.5 with 72 (bench_autoencoder
 // conv, one run each). With the positions' blocks a cache line off a power of two apart (position_stride in
-// the kernels), 24, 32, 48 and 64 tiles all took 70-75 ms on one thread, so the count stays.
-constexpr int kTilesPerUnit = 32;
+// the kernels), 24, 32, 48 and 64 tiles all took 70-75 ms on one thread there. On an AMD EPYC with
+// AVX-512 (1 MiB of L2 a core) 16 tiles beat 32 by 1.04-1.09x on the whole networks (decode, encode, the
+// refinement's decoder share, Stage I and III steps; bench_autoencoder paths, alternated): a unit's
+// transformed inputs and products (2 x 36 positions x 16 tiles x 64 channels) stay in L2 beside the
+// 576 KiB of transformed kernels each unit streams.
+constexpr int kTilesPerUnit = 16;
 
 struct Geometry {
   int64_t n, in_h, in_w, out_h, out_w, inputs, outputs;
   bool upsampled;  // the convolution reads the input upsampled 2x (nearest): out = 2 x in, read at [y/2][x/2]
-  int tile;        // outputs per tile side: 2, F(2x2, 3x3), or 4, F(4x4, 3x3)
+  int tile;        // outputs per tile side: 2, 4 or 6, F(m x m, 3x3)
   int64_t tiles_y, tiles_x, units_per_row;
   int side() const { return tile + 2; }
   int positions() const { return side() * side(); }
