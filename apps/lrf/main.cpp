@@ -111,8 +111,8 @@ int main(int argc, char** argv) {
                  "their weight gradient ($LRF_WINOGRAD=0: oneDNN's direct convolution instead); in inference the "
                  "decoder's last one, to 3 outputs, runs in a kernel of its own ($LRF_FUSED_CONV=0: oneDNN's). In fp32 on "
                  "AVX2 or AVX-512F, the 3x3 convolutions run as Winograd's F(4x4, 3x3) in inference and in all three "
-                 "training passes ($LRF_WINOGRAD_F32_TILE=2 or 6: F(2x2, 3x3) or F(6x6, 3x3)). $LRF_CPU_ISA=avx512|avx2|baseline caps the "
-                 "vector instructions lrf and oneDNN use");
+                 "training passes ($LRF_WINOGRAD_F32_TILE=2 or 6: F(2x2, 3x3) or F(6x6, 3x3)). "
+                 "$LRF_CPU_ISA=avx512|avx2|baseline caps the vector instructions lrf and oneDNN use");
   app.add_flag("--quiet,-q", quiet, "Print only warnings and errors");
   app.add_flag("--log-json", log_json, "Print progress and log messages as JSON lines on stderr");
   app.require_subcommand(1);

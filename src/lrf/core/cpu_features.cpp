@@ -82,7 +82,7 @@ bool switched_off(const char* name) {
   return v && std::string(v) == "0";
 }
 
-// The tile side $NAME asks for, `fallback` when unset; anything but `a` or `b` is refused.
+// The tile side $NAME asks for, `fallback` when unset; anything not `allowed` is refused.
 int tile_from_env(const char* name, int fallback, std::initializer_list<int> allowed) {
   const char* v = std::getenv(name);
   if (!v || !*v) return fallback;
